@@ -1,0 +1,18 @@
+# The two set-up commands of the README, plus the longer jobs.
+# Each installs what it needs (scripts/install-deps is idempotent).
+.PHONY: demo test bench fuzz clean
+
+demo:            ## calibrate the default scene and play it on the simulated device
+	scripts/demo
+
+test:            ## build and run every test (default + asan presets, fuzz, cross)
+	scripts/test
+
+bench:           ## micro-benchmarks and studies (long; figures go to docs/BENCHMARKS.md)
+	scripts/bench
+
+fuzz:            ## longer fuzzing run of the table reader (10 min per harness)
+	scripts/fuzz 600
+
+clean:
+	rm -rf build out

@@ -1,0 +1,11 @@
+// Subcommands of calibgen. Each lives in its own cmd_*.cpp and registers
+// itself on the CLI11 app; main() only lists them.
+#pragma once
+#include <CLI/CLI.hpp>
+
+namespace calib::app {
+
+// Every register_* adds one subcommand whose callback sets `exit_code`.
+void register_inspect(CLI::App &app, int &exit_code);
+
+}  // namespace calib::app

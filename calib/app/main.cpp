@@ -1,0 +1,22 @@
+// calibgen: virtual calibration of time-reversal haptic plates.
+#include "app/commands.h"
+
+#include <cstdio>
+#include <exception>
+
+int main(int argc, char **argv)
+{
+    CLI::App app{"calibgen " HAPTIC_VERSION ": simulate a plate and write time-reversal drive tables"};
+    app.require_subcommand(1);
+    int exit_code = 0;
+    calib::app::register_inspect(app, exit_code);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError &e) {
+        return app.exit(e);
+    } catch (const std::exception &e) {
+        std::fprintf(stderr, "calibgen: %s\n", e.what());
+        return 1;
+    }
+    return exit_code;
+}

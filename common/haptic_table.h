@@ -1,0 +1,155 @@
+/* haptic_table.h - the calibration table format shared by calibgen (writer)
+ * and hapticd (reader). One source of truth: docs/table-format.md documents
+ * exactly what this code reads and writes.
+ *
+ * Conventions: functions return 0 on success or a negative HAPTIC_TABLE_E*
+ * code; the optional haptic_table_error receives a one-line message that
+ * names the field and its byte offset.
+ *
+ * The reader never allocates beyond the single file buffer, validates every
+ * field against the file length before touching it, and refuses (never
+ * half-uses) a truncated, corrupted, oversized or wrong-version table.
+ */
+#ifndef HAPTIC_TABLE_H
+#define HAPTIC_TABLE_H
+
+#include <stddef.h>
+#include <stdio.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "haptic_table: the payload is accessed in place and is little-endian; big-endian hosts are not supported"
+#endif
+
+#define HAPTIC_TABLE_MAGIC "HAPTBL\r\n"          /* 8 bytes, no terminator */
+#define HAPTIC_TABLE_VERSION_MAJOR 1u
+#define HAPTIC_TABLE_VERSION_MINOR 0u
+#define HAPTIC_TABLE_HEADER_SIZE 128u
+#define HAPTIC_TABLE_CHANNEL_RECORD_SIZE 16u
+#define HAPTIC_TABLE_FOCUS_RECORD_SIZE 48u
+#define HAPTIC_TABLE_PROVENANCE_SIZE 256u
+#define HAPTIC_TABLE_PAYLOAD_ALIGN 64u
+#define HAPTIC_TABLE_CRC_SIZE 4u
+
+/* Limits a reader enforces; a writer refuses to exceed them too. */
+#define HAPTIC_TABLE_MAX_CHANNELS 32u
+#define HAPTIC_TABLE_MAX_FOCI 1024u
+#define HAPTIC_TABLE_MAX_SAMPLES (1u << 22)      /* per signal: 87 s at 48 kHz */
+#define HAPTIC_TABLE_MIN_RATE_HZ 1000u
+#define HAPTIC_TABLE_MAX_RATE_HZ 768000u
+#define HAPTIC_TABLE_MAX_FILE_SIZE ((uint64_t)1 << 31) /* 2 GiB */
+
+/* Provenance text fields: NUL-padded UTF-8, fixed width. */
+#define HAPTIC_TABLE_SCENE_NAME_LEN 64u
+#define HAPTIC_TABLE_SCENE_HASH_LEN 64u
+#define HAPTIC_TABLE_TOOL_VERSION_LEN 64u
+#define HAPTIC_TABLE_CREATED_LEN 64u
+
+enum haptic_sample_format {
+    HAPTIC_SAMPLE_S16LE = 1, /* signed 16-bit, full scale = 32767 */
+};
+
+enum haptic_table_status {
+    HAPTIC_TABLE_OK = 0,
+    HAPTIC_TABLE_EIO = -1,        /* open/read/write/rename failed (errno in message) */
+    HAPTIC_TABLE_ENOMEM = -2,     /* the single file buffer could not be allocated */
+    HAPTIC_TABLE_ETRUNC = -3,     /* file shorter than its header or sections say */
+    HAPTIC_TABLE_EMAGIC = -4,     /* not a haptic table */
+    HAPTIC_TABLE_EVERSION = -5,   /* format version this reader cannot read */
+    HAPTIC_TABLE_EFIELD = -6,     /* a header or record field out of its allowed range */
+    HAPTIC_TABLE_ELAYOUT = -7,    /* section offsets/sizes inconsistent */
+    HAPTIC_TABLE_ECRC = -8,       /* CRC-32 mismatch */
+    HAPTIC_TABLE_EGRAM = -9,      /* Gram matrix inconsistent (asymmetric, non-finite, energy) */
+    HAPTIC_TABLE_EINVAL = -10,    /* bad argument to the API (writer spec, NULL pointer) */
+    HAPTIC_TABLE_ETOOBIG = -11,   /* file larger than HAPTIC_TABLE_MAX_FILE_SIZE */
+};
+
+typedef struct haptic_table_error {
+    int code;                 /* enum haptic_table_status */
+    uint64_t offset;          /* byte offset the message refers to (0 if none) */
+    char message[200];        /* one line, no trailing newline */
+} haptic_table_error;
+
+typedef struct haptic_focus_info {
+    uint32_t id;              /* user-visible focus id (scene order, not necessarily 0..K-1) */
+    double x_m, y_m;          /* focus position on the plate, metres, plate origin at a corner */
+    double scale_m;           /* focal peak displacement (m) predicted at full scale */
+    double energy;            /* sum over channels and samples of s^2 (s in counts) = Gram[f][f] */
+} haptic_focus_info;
+
+typedef struct haptic_provenance {
+    char scene_name[HAPTIC_TABLE_SCENE_NAME_LEN + 1];
+    char scene_hash[HAPTIC_TABLE_SCENE_HASH_LEN + 1];
+    char tool_version[HAPTIC_TABLE_TOOL_VERSION_LEN + 1];
+    char created_utc[HAPTIC_TABLE_CREATED_LEN + 1];
+} haptic_provenance;
+
+/* A validated table: a view into one buffer. Treat the fields as read-only. */
+typedef struct haptic_table {
+    const uint8_t *data;      /* whole file */
+    size_t size;
+    void *owned;              /* buffer to free on close (NULL for a caller's buffer) */
+    uint16_t format_minor;
+    uint32_t flags;
+    uint32_t sample_rate_hz;
+    uint16_t channel_count;
+    uint16_t sample_format;
+    uint32_t focus_count;
+    uint32_t samples_per_signal;
+    uint64_t channels_offset, foci_offset, gram_offset, provenance_offset, payload_offset;
+    uint32_t crc32;
+} haptic_table;
+
+/* Writer input. The writer computes the Gram matrix and energies itself. */
+typedef struct haptic_table_spec {
+    uint32_t sample_rate_hz;
+    uint16_t channel_count;
+    uint32_t focus_count;
+    uint32_t samples_per_signal;
+    const double *channel_xy_m;      /* [channel_count][2] exciter positions */
+    const uint32_t *focus_id;        /* [focus_count] */
+    const double *focus_xy_m;        /* [focus_count][2] */
+    const double *focus_scale_m;     /* [focus_count] */
+    const int16_t *samples;          /* [focus][sample][channel], i.e. interleaved frames */
+    const char *scene_name, *scene_hash, *tool_version, *created_utc; /* may be NULL */
+} haptic_table_spec;
+
+/* Human-readable name of a status code (never NULL). */
+const char *haptic_table_error_string(int code);
+
+/* Validate a table held in memory (the caller keeps the buffer alive). */
+int haptic_table_validate(const void *data, size_t size, haptic_table *out, haptic_table_error *err);
+
+/* Read a file into one buffer and validate it; on failure nothing is kept. */
+int haptic_table_open(const char *path, haptic_table *out, haptic_table_error *err);
+
+/* Free the buffer owned by a table from haptic_table_open (safe on a zeroed table). */
+void haptic_table_close(haptic_table *t);
+
+/* Accessors (the table must be validated; indices are checked, out of range returns error/NULL). */
+int haptic_table_focus(const haptic_table *t, uint32_t index, haptic_focus_info *out);
+int haptic_table_channel_position(const haptic_table *t, uint32_t channel, double *x_m, double *y_m);
+double haptic_table_gram(const haptic_table *t, uint32_t i, uint32_t j);   /* NaN if out of range */
+const int16_t *haptic_table_signal(const haptic_table *t, uint32_t focus); /* [n][c] interleaved */
+void haptic_table_provenance(const haptic_table *t, haptic_provenance *out);
+/* Index of the focus with this id, or -1. */
+int32_t haptic_table_find_focus(const haptic_table *t, uint32_t id);
+
+/* Encoded size of a spec (0 if the spec is invalid or too large). */
+uint64_t haptic_table_encoded_size(const haptic_table_spec *spec);
+/* Encode into a caller buffer of at least haptic_table_encoded_size() bytes. */
+int haptic_table_encode(const haptic_table_spec *spec, void *buf, size_t size, haptic_table_error *err);
+/* Encode and write atomically: temp file in the same directory, fsync, rename. */
+int haptic_table_write(const char *path, const haptic_table_spec *spec, haptic_table_error *err);
+
+/* Multi-line human summary (used by `calibgen inspect` and `hapticd --check`). */
+int haptic_table_print_summary(const haptic_table *t, const char *path, FILE *out);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* HAPTIC_TABLE_H */

@@ -1,0 +1,24 @@
+/* Known-signal tables for the tests (and the fuzz seed corpus). */
+#ifndef TABLE_FIXTURE_H
+#define TABLE_FIXTURE_H
+#include <haptic_table.h>
+#include <stdint.h>
+
+typedef struct table_fixture {
+    haptic_table_spec spec;
+    double channel_xy[HAPTIC_TABLE_MAX_CHANNELS * 2];
+    uint32_t ids[64];
+    double focus_xy[128];
+    double scale[64];
+    int16_t *samples;
+} table_fixture;
+
+/* Deterministic signals (a 32-bit LCG) with the extremes -32768 and 32767
+ * present; focus ids 10, 20, 30, ... ; foci <= 64. */
+void table_fixture_init(table_fixture *fx, uint16_t channels, uint32_t foci, uint32_t samples, uint32_t seed);
+void table_fixture_free(table_fixture *fx);
+/* Encode into a new malloc'ed buffer; returns its size (0 on failure). */
+size_t table_fixture_encode(const table_fixture *fx, uint8_t **out);
+/* Recompute and store the CRC-32 trailer after a deliberate edit. */
+void table_fixture_fix_crc(uint8_t *buf, size_t size);
+#endif

@@ -1,0 +1,303 @@
+/* Table format: round trip, the documented byte layout, the Gram matrix
+ * against a brute-force recomputation, the atomic writer, and the API's
+ * argument checks. */
+#define _POSIX_C_SOURCE 200809L
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <cmocka.h>
+
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include "table_fixture.h"
+
+static uint32_t le32(const uint8_t *p) { return p[0] | p[1] << 8 | p[2] << 16 | (uint32_t)p[3] << 24; }
+static uint64_t le64(const uint8_t *p) { return le32(p) | (uint64_t)le32(p + 4) << 32; }
+
+static char tmpdir[256];
+
+static int make_tmpdir(void **state)
+{
+    (void)state;
+    const char *base = getenv("TMPDIR");
+    snprintf(tmpdir, sizeof tmpdir, "%s/htab.XXXXXX", base ? base : "/tmp");
+    return mkdtemp(tmpdir) ? 0 : -1;
+}
+
+static int remove_tmpdir(void **state)
+{
+    (void)state;
+    DIR *d = opendir(tmpdir);
+    struct dirent *e;
+    char p[512];
+    while (d && (e = readdir(d))) {
+        if (e->d_name[0] == '.')
+            continue;
+        snprintf(p, sizeof p, "%s/%s", tmpdir, e->d_name);
+        unlink(p);
+    }
+    if (d)
+        closedir(d);
+    return rmdir(tmpdir);
+}
+
+static int count_dir_entries(void)
+{
+    int n = 0;
+    DIR *d = opendir(tmpdir);
+    struct dirent *e;
+    while ((e = readdir(d)))
+        n += e->d_name[0] != '.';
+    closedir(d);
+    return n;
+}
+
+static void crc32_matches_the_documented_check_value(void **state)
+{
+    (void)state;
+    /* docs/table-format.md: CRC-32/ISO-HDLC (zlib), check value of "123456789". */
+    assert_int_equal(crc32(crc32(0L, Z_NULL, 0), (const Bytef *)"123456789", 9), 0xCBF43926u);
+}
+
+static void round_trip_is_bit_identical(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 8, 5, 300, 7);
+    char path[300];
+    snprintf(path, sizeof path, "%s/rt.htab", tmpdir);
+    haptic_table_error err;
+    assert_int_equal(haptic_table_write(path, &fx.spec, &err), 0);
+    assert_int_equal(count_dir_entries(), 1); /* no temporary left behind */
+
+    haptic_table t;
+    int rc = haptic_table_open(path, &t, &err);
+    if (rc)
+        fail_msg("%s", err.message);
+    assert_int_equal(t.sample_rate_hz, 48000);
+    assert_int_equal(t.channel_count, 8);
+    assert_int_equal(t.focus_count, 5);
+    assert_int_equal(t.samples_per_signal, 300);
+    for (uint32_t c = 0; c < 8; c++) {
+        double x, y;
+        assert_int_equal(haptic_table_channel_position(&t, c, &x, &y), 0);
+        assert_true(x == fx.channel_xy[2 * c] && y == fx.channel_xy[2 * c + 1]);
+    }
+    for (uint32_t f = 0; f < 5; f++) {
+        haptic_focus_info fi;
+        assert_int_equal(haptic_table_focus(&t, f, &fi), 0);
+        assert_int_equal(fi.id, fx.ids[f]);
+        assert_true(fi.x_m == fx.focus_xy[2 * f] && fi.y_m == fx.focus_xy[2 * f + 1]);
+        assert_true(fi.scale_m == fx.scale[f]);
+        assert_int_equal(haptic_table_find_focus(&t, fx.ids[f]), (int)f);
+        assert_memory_equal(haptic_table_signal(&t, f), fx.samples + (size_t)f * 300 * 8, 300 * 8 * sizeof(int16_t));
+    }
+    assert_int_equal(haptic_table_find_focus(&t, 11), -1);
+    haptic_provenance p;
+    haptic_table_provenance(&t, &p);
+    assert_string_equal(p.scene_name, "fixture");
+    assert_string_equal(p.scene_hash, "fnv1a64:0123456789abcdef");
+    assert_string_equal(p.tool_version, "test 0");
+    assert_string_equal(p.created_utc, "2026-11-21T00:00:00Z");
+    haptic_table_close(&t);
+    assert_null(t.data);
+    table_fixture_free(&fx);
+}
+
+static void gram_matrix_equals_brute_force(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 3, 4, 1000, 99);
+    uint8_t *b;
+    size_t size = table_fixture_encode(&fx, &b);
+    assert_true(size > 0);
+    haptic_table t;
+    assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+    const size_t per = 3 * 1000;
+    for (uint32_t i = 0; i < 4; i++)
+        for (uint32_t j = 0; j < 4; j++) {
+            long double acc = 0; /* independent: long double sum of products */
+            for (size_t n = 0; n < per; n++)
+                acc += (long double)fx.samples[i * per + n] * fx.samples[j * per + n];
+            assert_true(haptic_table_gram(&t, i, j) == (double)acc);
+        }
+    haptic_focus_info fi;
+    haptic_table_focus(&t, 2, &fi);
+    assert_true(fi.energy == haptic_table_gram(&t, 2, 2));
+    free(b);
+    table_fixture_free(&fx);
+}
+
+static void header_follows_the_documented_layout(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 8, 9, 100, 3);
+    uint8_t *b;
+    size_t size = table_fixture_encode(&fx, &b);
+    /* Offsets and sizes as docs/table-format.md states them. */
+    assert_memory_equal(b, "HAPTBL\r\n", 8);
+    assert_int_equal(b[8] | b[9] << 8, 1);
+    assert_int_equal(b[10] | b[11] << 8, 0);
+    assert_int_equal(le32(b + 12), 128);
+    assert_int_equal(le32(b + 20), 48000);
+    assert_int_equal(b[24] | b[25] << 8, 8);
+    assert_int_equal(b[26] | b[27] << 8, 1);
+    assert_int_equal(le32(b + 28), 9);
+    assert_int_equal(le32(b + 32), 100);
+    assert_int_equal(le64(b + 40), size);
+    uint64_t ch = le64(b + 48), fo = le64(b + 56), gr = le64(b + 64), pr = le64(b + 72), pl = le64(b + 80);
+    assert_int_equal(ch, 128);
+    assert_int_equal(fo, 128 + 8 * 16);
+    assert_int_equal(gr, fo + 9 * 48);
+    assert_int_equal(pr, gr + 9 * 9 * 8);
+    assert_int_equal(pl % 64, 0);
+    assert_true(pl >= pr + 256 && pl < pr + 256 + 64);
+    assert_int_equal(le64(b + 88), 9 * 100 * 8 * 2);
+    assert_int_equal(pl + 9 * 100 * 8 * 2 + 4, size);
+    /* Focus 1 record: id at +0, x at +8 (IEEE-754 double, little-endian). */
+    assert_int_equal(le32(b + fo + 48), 20);
+    uint64_t xbits = le64(b + fo + 48 + 8);
+    double x;
+    memcpy(&x, &xbits, 8);
+    assert_true(x == fx.focus_xy[2]);
+    /* Payload: focus 2, frame 5, channel 3 at pl + ((2*100 + 5)*8 + 3)*2. */
+    size_t at = pl + ((2 * 100 + 5) * 8 + 3) * 2;
+    assert_int_equal((int16_t)(b[at] | b[at + 1] << 8), fx.samples[(2 * 100 + 5) * 8 + 3]);
+    /* CRC-32 over [0, size-4). */
+    assert_int_equal(le32(b + size - 4), (uint32_t)crc32(crc32(0L, Z_NULL, 0), b, (uInt)(size - 4)));
+    free(b);
+    table_fixture_free(&fx);
+}
+
+static void writer_replaces_atomically_and_fails_cleanly(void **state)
+{
+    (void)state;
+    table_fixture a, b;
+    table_fixture_init(&a, 2, 1, 50, 1);
+    table_fixture_init(&b, 4, 2, 70, 2);
+    char path[300];
+    snprintf(path, sizeof path, "%s/replace.htab", tmpdir);
+    haptic_table_error err;
+    assert_int_equal(haptic_table_write(path, &a.spec, &err), 0);
+    assert_int_equal(haptic_table_write(path, &b.spec, &err), 0);
+    haptic_table t;
+    assert_int_equal(haptic_table_open(path, &t, &err), 0);
+    assert_int_equal(t.channel_count, 4);
+    haptic_table_close(&t);
+    int before = count_dir_entries();
+
+    /* An invalid spec (all-zero focus) is refused and the old file stays. */
+    memset(a.samples, 0, 50 * 2 * sizeof(int16_t));
+    assert_int_equal(haptic_table_write(path, &a.spec, &err), HAPTIC_TABLE_EGRAM);
+    assert_int_equal(count_dir_entries(), before);
+    assert_int_equal(haptic_table_open(path, &t, &err), 0);
+    assert_int_equal(t.channel_count, 4);
+    haptic_table_close(&t);
+
+    /* A directory that does not exist: EIO naming the temporary, nothing created. */
+    snprintf(path, sizeof path, "%s/missing/x.htab", tmpdir);
+    assert_int_equal(haptic_table_write(path, &b.spec, &err), HAPTIC_TABLE_EIO);
+    assert_non_null(strstr(err.message, "missing/x.htab.tmp"));
+    assert_int_equal(count_dir_entries(), before);
+    table_fixture_free(&a);
+    table_fixture_free(&b);
+}
+
+static void open_reports_missing_file(void **state)
+{
+    (void)state;
+    haptic_table t;
+    haptic_table_error err;
+    assert_int_equal(haptic_table_open("/nonexistent/dir/t.htab", &t, &err), HAPTIC_TABLE_EIO);
+    assert_non_null(strstr(err.message, "No such file"));
+    assert_int_equal(haptic_table_open(tmpdir, &t, &err), HAPTIC_TABLE_EIO); /* a directory */
+    assert_null(t.data);
+}
+
+static void writer_refuses_bad_specs(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 8, 2, 10, 5);
+    haptic_table_error err;
+    uint8_t buf[4096];
+    haptic_table_spec s = fx.spec;
+    s.channel_count = 0;
+    assert_int_equal(haptic_table_encode(&s, buf, sizeof buf, &err), HAPTIC_TABLE_EINVAL);
+    assert_int_equal(haptic_table_encoded_size(&s), 0);
+    s = fx.spec;
+    s.channel_count = 33;
+    assert_int_equal(haptic_table_encode(&s, buf, sizeof buf, &err), HAPTIC_TABLE_EINVAL);
+    s = fx.spec;
+    s.sample_rate_hz = 999;
+    assert_int_equal(haptic_table_encode(&s, buf, sizeof buf, &err), HAPTIC_TABLE_EINVAL);
+    s = fx.spec;
+    s.samples = NULL;
+    assert_int_equal(haptic_table_encode(&s, buf, sizeof buf, &err), HAPTIC_TABLE_EINVAL);
+    s = fx.spec;
+    s.scene_name = "a name that is far too long for the sixty-four byte provenance field of the table";
+    assert_int_equal(haptic_table_encode(&s, buf, sizeof buf, &err), HAPTIC_TABLE_EINVAL);
+    assert_non_null(strstr(err.message, "scene_name"));
+    s = fx.spec;
+    s.scene_hash = "tab\there";
+    assert_int_equal(haptic_table_encode(&s, buf, sizeof buf, &err), HAPTIC_TABLE_EINVAL);
+    s = fx.spec;
+    fx.ids[1] = fx.ids[0];
+    assert_int_equal(haptic_table_encode(&s, buf, sizeof buf, &err), HAPTIC_TABLE_EFIELD);
+    assert_non_null(strstr(err.message, "repeats"));
+    fx.ids[1] = 20;
+    fx.scale[0] = NAN;
+    assert_int_equal(haptic_table_encode(&s, buf, sizeof buf, &err), HAPTIC_TABLE_EFIELD);
+    fx.scale[0] = 1e-5;
+    assert_int_equal(haptic_table_encode(&s, buf, 100, &err), HAPTIC_TABLE_EINVAL); /* buffer too small */
+    assert_int_equal(haptic_table_encode(&s, buf, sizeof buf, &err), 0);
+    table_fixture_free(&fx);
+}
+
+static void accessors_check_their_indices(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 2, 10, 5);
+    uint8_t *b;
+    size_t size = table_fixture_encode(&fx, &b);
+    haptic_table t;
+    assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+    haptic_focus_info fi;
+    assert_int_equal(haptic_table_focus(&t, 2, &fi), HAPTIC_TABLE_EINVAL);
+    assert_int_equal(haptic_table_channel_position(&t, 2, NULL, NULL), HAPTIC_TABLE_EINVAL);
+    assert_true(isnan(haptic_table_gram(&t, 0, 2)));
+    assert_null(haptic_table_signal(&t, 2));
+    assert_int_equal(haptic_table_validate(NULL, 10, &t, NULL), HAPTIC_TABLE_EINVAL);
+    for (int code = 0; code >= -12; code--)
+        assert_non_null(haptic_table_error_string(code));
+    FILE *devnull = fopen("/dev/null", "w");
+    assert_int_equal(haptic_table_print_summary(&t, "x", devnull), 0);
+    fclose(devnull);
+    free(b);
+    table_fixture_free(&fx);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(crc32_matches_the_documented_check_value),
+        cmocka_unit_test(round_trip_is_bit_identical),
+        cmocka_unit_test(gram_matrix_equals_brute_force),
+        cmocka_unit_test(header_follows_the_documented_layout),
+        cmocka_unit_test(writer_replaces_atomically_and_fails_cleanly),
+        cmocka_unit_test(open_reports_missing_file),
+        cmocka_unit_test(writer_refuses_bad_specs),
+        cmocka_unit_test(accessors_check_their_indices),
+    };
+    return cmocka_run_group_tests(tests, make_tmpdir, remove_tmpdir);
+}
