@@ -1,0 +1,321 @@
+#include "pipeline/placement.h"
+
+#include <unsupported/Eigen/FFT>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+namespace calib::pipeline {
+
+bool Band::allows(Point p) const
+{
+    return p.x_m >= frame_margin_m && p.x_m <= plate_x_m - frame_margin_m && p.y_m >= frame_margin_m &&
+           p.y_m <= plate_y_m - frame_margin_m && !active_area.contains(p, clearance_m);
+}
+
+std::vector<Point> candidate_sites(const Band &band, double spacing)
+{
+    if (!(spacing > 0))
+        throw std::invalid_argument("candidate site spacing must be > 0");
+    std::vector<Point> sites;
+    const auto nx = static_cast<long>(std::floor(band.plate_x_m / spacing));
+    const auto ny = static_cast<long>(std::floor(band.plate_y_m / spacing));
+    // Lattice centred on the plate so a symmetric plate gets symmetric sites.
+    const double ox = (band.plate_x_m - static_cast<double>(nx) * spacing) / 2;
+    const double oy = (band.plate_y_m - static_cast<double>(ny) * spacing) / 2;
+    for (long j = 0; j <= ny; j++)
+        for (long i = 0; i <= nx; i++) {
+            Point p{ox + static_cast<double>(i) * spacing, oy + static_cast<double>(j) * spacing};
+            if (band.allows(p))
+                sites.push_back(p);
+        }
+    return sites;
+}
+
+static double dist(Point a, Point b) { return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m); }
+
+double distance_variety(const std::vector<Point> &e, double tol)
+{
+    std::vector<double> d;
+    for (size_t i = 0; i < e.size(); i++)
+        for (size_t j = i + 1; j < e.size(); j++)
+            d.push_back(dist(e[i], e[j]));
+    if (d.size() < 2)
+        return 1.0;
+    std::sort(d.begin(), d.end());
+    size_t distinct = 0;
+    for (size_t k = 0; k < d.size(); k++) {
+        const bool near_prev = k > 0 && d[k] - d[k - 1] <= tol;
+        const bool near_next = k + 1 < d.size() && d[k + 1] - d[k] <= tol;
+        distinct += !near_prev && !near_next;
+    }
+    return static_cast<double>(distinct) / static_cast<double>(d.size());
+}
+
+std::vector<size_t> regular_pattern(const Band &band, const std::vector<Point> &sites, unsigned count)
+{
+    if (sites.size() < count)
+        throw std::invalid_argument("fewer candidate sites than exciters");
+    // Centre line of the outer ring: halfway between the frame margin and the
+    // active area (or the plate centre when the ring is the whole plate).
+    const double m = band.frame_margin_m;
+    const double inner_x = std::max(m, band.active_area.x0_m - band.clearance_m);
+    const double inner_y = std::max(m, band.active_area.y0_m - band.clearance_m);
+    const double x0 = (m + inner_x) / 2, y0 = (m + inner_y) / 2;
+    const double x1 = band.plate_x_m - x0, y1 = band.plate_y_m - y0;
+    const double w = x1 - x0, h = y1 - y0, perimeter = 2 * (w + h);
+    std::vector<size_t> chosen;
+    for (unsigned k = 0; k < count; k++) {
+        double s = perimeter * k / count;  // start at the lower-left corner
+        Point p;
+        if (s < w)
+            p = {x0 + s, y0};
+        else if ((s -= w) < h)
+            p = {x1, y0 + s};
+        else if ((s -= h) < w)
+            p = {x1 - s, y1};
+        else
+            p = {x0, y1 - (s - w)};
+        size_t best = sites.size();
+        double bd = std::numeric_limits<double>::infinity();
+        for (size_t i = 0; i < sites.size(); i++)
+            if (std::find(chosen.begin(), chosen.end(), i) == chosen.end() && dist(sites[i], p) < bd) {
+                bd = dist(sites[i], p);
+                best = i;
+            }
+        chosen.push_back(best);
+    }
+    return chosen;
+}
+
+// ---- contrast model ----
+
+ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> &r, size_t foci, size_t keep)
+{
+    rows_ = r.size();
+    foci_ = foci;
+    if (rows_ == 0 || foci == 0 || foci > rows_ || r[0].empty() || r[0][0].empty())
+        throw std::invalid_argument("contrast model: no responses");
+    if (rows_ < 2)
+        throw std::invalid_argument("contrast model: needs at least one other focus or probe point");
+    sites_ = r[0].size();
+    const size_t len = r[0][0].size();
+    keep = std::clamp<size_t>(keep, 1, len);
+    lags_ = keep + len - 1;  // lag from -(keep-1) to len-1
+    size_t nfft = 1;
+    while (nfft < lags_)
+        nfft *= 2;
+    corr_.assign(sites_ * foci_ * rows_ * lags_, 0.0f);
+
+#pragma omp parallel
+    {
+        Eigen::FFT<double> fft;
+        std::vector<double> buf(nfft);
+        std::vector<std::vector<std::complex<double>>> spec_full(rows_), spec_kept(foci_);
+        std::vector<std::complex<double>> prod(nfft);
+        std::vector<double> out(nfft);
+#pragma omp for schedule(dynamic)
+        for (size_t i = 0; i < sites_; i++) {
+            for (size_t g = 0; g < rows_; g++) {
+                std::fill(buf.begin(), buf.end(), 0.0);
+                std::copy(r[g][i].begin(), r[g][i].end(), buf.begin());
+                fft.fwd(spec_full[g], buf);
+                if (g < foci_) {
+                    std::fill(buf.begin() + static_cast<long>(keep), buf.end(), 0.0);
+                    fft.fwd(spec_kept[g], buf);
+                }
+            }
+            for (size_t f = 0; f < foci_; f++)
+                for (size_t g = 0; g < rows_; g++) {
+                    for (size_t k = 0; k < nfft; k++)
+                        prod[k] = std::conj(spec_kept[f][k]) * spec_full[g][k];
+                    fft.inv(out, prod);
+                    float *c = &corr_[((i * foci_ + f) * rows_ + g) * lags_];
+                    for (size_t l = 0; l < lags_; l++) {  // lag = l - (keep-1), circular index
+                        const long lag = static_cast<long>(l) - static_cast<long>(keep - 1);
+                        c[l] = static_cast<float>(out[static_cast<size_t>((lag + static_cast<long>(nfft)) %
+                                                                          static_cast<long>(nfft))]);
+                    }
+                }
+        }
+    }
+}
+
+void ContrastModel::State::add(size_t site, float sign)
+{
+    const float *c = &m_->corr_[site * m_->foci_ * m_->rows_ * m_->lags_];
+    for (size_t k = 0; k < y_.size(); k++)
+        y_[k] += sign * c[k];
+}
+
+ContrastModel::Score ContrastModel::State::evaluate() const
+{
+    const ContrastModel &m = *m_;
+    Score s;
+    s.worst_db = std::numeric_limits<double>::infinity();
+    for (size_t f = 0; f < m.foci_; f++) {
+        double own = 0, other = 0;
+        for (size_t g = 0; g < m.rows_; g++) {
+            const float *y = &y_[(f * m.rows_ + g) * m.lags_];
+            float peak = 0;
+            for (size_t l = 0; l < m.lags_; l++)
+                peak = std::max(peak, std::abs(y[l]));
+            (g == f ? own : other) = std::max(g == f ? own : other, static_cast<double>(peak));
+        }
+        const double db = 20 * std::log10(std::max(own, 1e-300) / std::max(other, 1e-300));
+        s.per_focus_db.push_back(db);
+        s.worst_db = std::min(s.worst_db, db);
+    }
+    return s;
+}
+
+ContrastModel::Score ContrastModel::score(const std::vector<size_t> &chosen) const
+{
+    State st(*this);
+    for (size_t i : chosen)
+        st.add(i, 1.0f);
+    return st.evaluate();
+}
+
+// ---- search ----
+
+namespace {
+
+// Evaluator concept: double set(const std::vector<size_t>&) evaluates a new
+// set; double swap(j, site) evaluates the set with exciter j moved to site
+// and keeps it; void undo(j, old_site) reverts the last swap.
+template <class Evaluator>
+SearchResult anneal(const std::vector<Point> &sites, const SearchOptions &o, Evaluator &ev)
+{
+    if (o.count == 0)
+        throw std::invalid_argument("exciter count must be >= 1");
+    std::mt19937_64 rng(o.seed);
+    auto uniform = [&rng] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+    auto spaced_ok = [&](const std::vector<size_t> &set, size_t skip, size_t candidate) {
+        for (size_t j = 0; j < set.size(); j++)
+            if (j != skip && dist(sites[set[j]], sites[candidate]) < o.min_spacing_m)
+                return false;
+        return true;
+    };
+    SearchResult best;
+    best.objective = -std::numeric_limits<double>::infinity();
+    for (unsigned restart = 0; restart < o.restarts; restart++) {
+        // Random start: greedy random insertion with the spacing constraint.
+        std::vector<size_t> set;
+        for (unsigned tries = 0; set.size() < o.count && tries < 100 * o.count * (sites.size() + 1); tries++) {
+            const size_t c = rng() % sites.size();
+            if (std::find(set.begin(), set.end(), c) == set.end() && spaced_ok(set, set.size(), c))
+                set.push_back(c);
+        }
+        if (set.size() < o.count)
+            throw std::invalid_argument("the border band cannot hold " + std::to_string(o.count) +
+                                        " exciters at least " + std::to_string(o.min_spacing_m) + " m apart");
+        double cur = ev.set(set);
+        best.evaluations++;
+        if (cur > best.objective) {
+            best.objective = cur;
+            best.chosen = set;
+        }
+        const double t0 = o.temperature_start, t1 = o.temperature_end;
+        for (unsigned it = 0; it < o.iterations; it++) {
+            const double temp = t0 * std::pow(t1 / t0, static_cast<double>(it) / std::max(1u, o.iterations - 1));
+            const size_t j = rng() % set.size();
+            size_t cand;
+            if (uniform() < 0.75) {  // local move
+                const Point c = sites[set[j]];
+                const double ang = 2 * std::numbers::pi * uniform(), rad = o.local_radius_m * uniform();
+                const Point target{c.x_m + rad * std::cos(ang), c.y_m + rad * std::sin(ang)};
+                cand = set[j];
+                double bd = std::numeric_limits<double>::infinity();
+                for (size_t i = 0; i < sites.size(); i++)
+                    if (dist(sites[i], target) < bd) {
+                        bd = dist(sites[i], target);
+                        cand = i;
+                    }
+            } else {
+                cand = rng() % sites.size();
+            }
+            if (cand == set[j] || std::find(set.begin(), set.end(), cand) != set.end() || !spaced_ok(set, j, cand))
+                continue;
+            const size_t old = set[j];
+            set[j] = cand;
+            const double next = ev.swap(j, old, cand);
+            best.evaluations++;
+            if (next >= cur || uniform() < std::exp((next - cur) / temp)) {
+                cur = next;
+                if (cur > best.objective) {
+                    best.objective = cur;
+                    best.chosen = set;
+                }
+            } else {
+                ev.undo(j, old, cand);
+                set[j] = old;
+            }
+        }
+    }
+    return best;
+}
+
+struct FunctionEvaluator {
+    const Objective &f;
+    std::vector<size_t> chosen;
+    double set(const std::vector<size_t> &s)
+    {
+        chosen = s;
+        return f(chosen);
+    }
+    double swap(size_t j, size_t, size_t cand)
+    {
+        chosen[j] = cand;
+        return f(chosen);
+    }
+    void undo(size_t j, size_t old, size_t) { chosen[j] = old; }
+};
+
+struct ContrastEvaluator {
+    const ContrastModel &m;
+    ContrastModel::State st{m};
+    double set(const std::vector<size_t> &s)
+    {
+        st = ContrastModel::State(m);
+        for (size_t i : s)
+            st.add(i, 1.0f);
+        return st.evaluate().worst_db;
+    }
+    double swap(size_t, size_t old, size_t cand)
+    {
+        st.add(old, -1.0f);
+        st.add(cand, 1.0f);
+        return st.evaluate().worst_db;
+    }
+    void undo(size_t, size_t old, size_t cand)
+    {
+        st.add(cand, -1.0f);
+        st.add(old, 1.0f);
+    }
+};
+
+}  // namespace
+
+SearchResult search_placement(const std::vector<Point> &sites, const SearchOptions &o, const Objective &objective)
+{
+    FunctionEvaluator ev{objective, {}};
+    return anneal(sites, o, ev);
+}
+
+SearchResult search_placement_contrast(const std::vector<Point> &sites, const SearchOptions &o,
+                                       const ContrastModel &model)
+{
+    if (model.sites() != sites.size())
+        throw std::invalid_argument("contrast model and candidate sites differ in count");
+    ContrastEvaluator ev{model};
+    return anneal(sites, o, ev);
+}
+
+}  // namespace calib::pipeline

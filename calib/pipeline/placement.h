@@ -1,0 +1,113 @@
+// Exciter placement in the border band: candidate sites, the seed's criterion
+// (variety of inter-exciter distances), the focusing contrast predicted from
+// simulated responses by reciprocity, and a seeded randomized search
+// (random restarts + simulated annealing with local moves).
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace calib::pipeline {
+
+struct Point {
+    double x_m = 0, y_m = 0;
+};
+
+struct Rect {
+    double x0_m = 0, y0_m = 0, x1_m = 0, y1_m = 0;
+    bool contains(Point p, double grow_m = 0) const
+    {
+        return p.x_m >= x0_m - grow_m && p.x_m <= x1_m + grow_m && p.y_m >= y0_m - grow_m && p.y_m <= y1_m + grow_m;
+    }
+};
+
+// Where exciters may go: on the plate, at least frame_margin from its edge,
+// and outside the active (transparent) area grown by clearance.
+struct Band {
+    double plate_x_m = 0, plate_y_m = 0;
+    double frame_margin_m = 0;
+    Rect active_area;
+    double clearance_m = 0;
+    bool allows(Point p) const;
+};
+
+// Sites on a square lattice of the given spacing, inside the band.
+std::vector<Point> candidate_sites(const Band &band, double spacing_m);
+
+// Seed criterion: the fraction of the n(n-1)/2 inter-exciter distances that
+// differ from every other one by more than tolerance_m (1 = all distinct;
+// symmetric patterns repeat distances and score low).
+double distance_variety(const std::vector<Point> &exciters, double tolerance_m);
+
+// The regular symmetric pattern: `count` points equally spaced along the
+// centre line of the band's outer ring (corners and edge midpoints for 8 on a
+// square plate), each snapped to the nearest free candidate site.
+std::vector<size_t> regular_pattern(const Band &band, const std::vector<Point> &sites, unsigned count);
+
+// Predicted focusing contrast from reciprocity. responses[g][i] is the
+// displacement at candidate site i while the pulse is emitted at point g
+// (the first `foci` rows are foci, any further rows are probe points where
+// the field must stay small). Driving focus f's time-reversed signals (the
+// first `keep` samples reversed) from set E gives at point g
+//     y_fg(lag) = sum_{i in E} sum_u r_fi(u) r_gi(u + lag),
+// a sum of per-site cross-correlations that are computed once (FFT).
+// Contrast of f = max|y_ff| / max_{g != f} max|y_fg|.
+class ContrastModel {
+public:
+    ContrastModel(const std::vector<std::vector<std::vector<float>>> &responses, size_t foci, size_t keep);
+    size_t sites() const { return sites_; }
+    size_t foci() const { return foci_; }
+    size_t bytes() const { return corr_.size() * sizeof(float); }
+
+    struct Score {
+        double worst_db = 0;               // min over foci of 20 log10(contrast)
+        std::vector<double> per_focus_db;
+    };
+    Score score(const std::vector<size_t> &chosen) const;
+
+    // Running sum for a set, updated in O(foci * rows * lags) per exchanged site.
+    class State {
+    public:
+        explicit State(const ContrastModel &m) : m_(&m), y_(m.foci_ * m.rows_ * m.lags_, 0.0f) {}
+        void add(size_t site, float sign);
+        Score evaluate() const;
+    private:
+        const ContrastModel *m_;
+        std::vector<float> y_;
+    };
+
+private:
+    size_t sites_, rows_, foci_, lags_;
+    std::vector<float> corr_;  // [site][f][g][lag]
+};
+
+struct SearchOptions {
+    unsigned count = 8;
+    double min_spacing_m = 0.03;
+    uint64_t seed = 1;
+    unsigned restarts = 8;
+    unsigned iterations = 1500;   // annealing moves per restart
+    double local_radius_m = 0.1;  // most moves stay within this distance
+    // Annealing temperature in objective units (dB for the contrast objective),
+    // lowered geometrically over each restart.
+    double temperature_start = 1.0, temperature_end = 0.01;
+};
+
+struct SearchResult {
+    std::vector<size_t> chosen;   // indices into the candidate sites
+    double objective = 0;
+    unsigned evaluations = 0;
+};
+
+// Maximizes objective(chosen) over sets of `count` sites at least
+// min_spacing apart. Deterministic for a seed. Throws std::invalid_argument
+// when the band cannot hold `count` exciters at that spacing.
+using Objective = std::function<double(const std::vector<size_t> &chosen)>;
+SearchResult search_placement(const std::vector<Point> &sites, const SearchOptions &options, const Objective &objective);
+
+// Same search with the contrast model, using its incremental state.
+SearchResult search_placement_contrast(const std::vector<Point> &sites, const SearchOptions &options,
+                                       const ContrastModel &model);
+
+}  // namespace calib::pipeline

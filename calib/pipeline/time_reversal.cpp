@@ -1,0 +1,99 @@
+#include "pipeline/time_reversal.h"
+
+#include <soxr.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+#include <string>
+
+namespace calib::pipeline {
+
+std::vector<double> resample(const std::vector<double> &x, double in_rate, double out_rate)
+{
+    if (x.empty())
+        return {};
+    if (in_rate == out_rate)
+        return x;
+    const auto out_len = static_cast<size_t>(std::llround(static_cast<double>(x.size()) * out_rate / in_rate));
+    std::vector<double> y(out_len);
+    size_t done = 0;
+    const soxr_io_spec_t io = soxr_io_spec(SOXR_FLOAT64_I, SOXR_FLOAT64_I);
+    const soxr_quality_spec_t q = soxr_quality_spec(SOXR_HQ | SOXR_LINEAR_PHASE, 0);
+    const soxr_runtime_spec_t rt = soxr_runtime_spec(1);
+    soxr_error_t err = soxr_oneshot(in_rate, out_rate, 1, x.data(), x.size(), nullptr, y.data(), y.size(), &done,
+                                    &io, &q, &rt);
+    if (err)
+        throw std::runtime_error(std::string("soxr: ") + err);
+    y.resize(done);
+    return y;
+}
+
+DriveSignals make_drive_signals(const std::vector<std::vector<double>> &rec, double sim_rate_hz,
+                                double pulse_duration_s, const TimeReversalOptions &o)
+{
+    if (rec.empty() || rec[0].empty())
+        throw std::invalid_argument("no recordings");
+    if (!(o.truncate_fraction > 0 && o.truncate_fraction <= 1))
+        throw std::invalid_argument("truncate_fraction must be in (0, 1]");
+    const size_t n = rec[0].size();
+    const auto keep = std::max<size_t>(1, static_cast<size_t>(std::llround(o.truncate_fraction * n)));
+    const size_t fade = std::min(keep / 4, static_cast<size_t>(std::llround(o.taper_s * sim_rate_hz)));
+
+    DriveSignals d;
+    d.channels = static_cast<unsigned>(rec.size());
+    d.rate_hz = o.output_rate_hz;
+    // Sample i of the output is recording sample keep-1-i: time reverses about (keep-1)/rate.
+    d.focus_delay_s = static_cast<double>(keep - 1) / sim_rate_hz - pulse_duration_s / 2;
+
+    std::vector<std::vector<double>> out(rec.size());
+    double peak = 0;
+    for (size_t c = 0; c < rec.size(); c++) {
+        if (rec[c].size() != n)
+            throw std::invalid_argument("recordings differ in length");
+        std::vector<double> s(keep);
+        for (size_t i = 0; i < keep; i++) {
+            const double v = rec[c][keep - 1 - i];  // reversed
+            if (!std::isfinite(v))
+                throw std::invalid_argument("recording of channel " + std::to_string(c) + " is not finite at sample " +
+                                            std::to_string(keep - 1 - i));
+            s[i] = v;
+        }
+        // Raised-cosine fades: the reversed signal starts where the kept window
+        // was cut mid-wave; without a fade that step is an audible click.
+        for (size_t i = 0; i < fade; i++) {
+            const double w = 0.5 * (1 - std::cos(std::numbers::pi * (static_cast<double>(i) + 0.5) / fade));
+            s[i] *= w;
+            s[keep - 1 - i] *= w;
+        }
+        out[c] = resample(s, sim_rate_hz, o.output_rate_hz);
+        for (double v : out[c])
+            peak = std::max(peak, std::abs(v));
+    }
+    if (!(peak > 0) || !std::isfinite(peak))
+        throw std::invalid_argument("all recordings are zero: no exciter site receives the pulse from this focus");
+
+    d.frames = out[0].size();
+    d.gain = 32767.0 / peak;
+    d.normalized.resize(d.frames * d.channels);
+    d.samples.resize(d.frames * d.channels);
+    // TPDF dither from a seeded generator: soxr's own dither is seeded from the
+    // clock, which would make two calibrations of one scene differ.
+    std::mt19937_64 rng(o.dither_seed);
+    const double to_unit = 1.0 / 18446744073709551616.0;  // 2^-64
+    for (size_t f = 0; f < d.frames; f++)
+        for (unsigned c = 0; c < d.channels; c++) {
+            const double v = out[c][f] / peak;
+            double counts = v * 32767.0;
+            if (o.dither)
+                counts += static_cast<double>(rng()) * to_unit + static_cast<double>(rng()) * to_unit - 1.0;
+            d.normalized[f * d.channels + c] = v;
+            d.samples[f * d.channels + c] =
+                static_cast<int16_t>(std::clamp(std::lround(counts), static_cast<long>(INT16_MIN), 32767L));
+        }
+    return d;
+}
+
+}  // namespace calib::pipeline
