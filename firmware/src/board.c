@@ -1,0 +1,377 @@
+/* board.c - board.ini parser (inih). Unknown sections and keys are errors:
+ * a typo in a board file must not silently fall back to a default. */
+#define _POSIX_C_SOURCE 200809L
+#include "board.h"
+
+#include <ini.h>
+
+#include <errno.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+struct parse_ctx {
+    struct hd_board *b;
+    char dir[HD_PATH_MAX];     /* folder of the board file, for relative paths */
+    char msg[HD_ERR_MAX];      /* first error: "[section] key: ..." */
+    bool failed;
+    uint32_t seen_lines;       /* which b->lines[] came from a section */
+};
+
+void hd_board_defaults(struct hd_board *b)
+{
+    memset(b, 0, sizeof *b);
+    b->channels = 8;
+    b->format = HD_FMT_S32_LE;
+    b->rate_hz = 48000;
+    b->period_frames = 64;
+    b->periods = 2;
+    b->map_count = 8;
+    for (unsigned c = 0; c < HD_MAX_CHANNELS; c++)
+        b->channel_map[c] = c;
+    b->pacing = HD_PACE_DEVICE;
+    b->lockout_ms = 50;
+    b->gain_limit = 1.0;
+    b->rt_priority = 80;
+    b->mlock = true;
+}
+
+const char *hd_format_name(enum hd_sample_format f)
+{
+    return f == HD_FMT_S16_LE ? "S16_LE" : f == HD_FMT_S32_LE ? "S32_LE" : "?";
+}
+
+double hd_board_buffer_latency_s(const struct hd_board *b)
+{
+    return (double)b->period_frames * b->periods / b->rate_hz;
+}
+
+__attribute__((format(printf, 4, 5))) static int bad(struct parse_ctx *c, const char *section, const char *key,
+                                                     const char *fmt, ...)
+{
+    if (!c->failed) {
+        int n = snprintf(c->msg, sizeof c->msg, "[%s] %s: ", section, key);
+        if (n < 0 || (size_t)n >= sizeof c->msg)
+            n = 0;
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(c->msg + n, sizeof c->msg - (size_t)n, fmt, ap);
+        va_end(ap);
+        c->failed = true;
+    }
+    return 0; /* inih: handler error */
+}
+
+static int parse_uint(const char *s, unsigned long lo, unsigned long hi, unsigned long *out)
+{
+    char *end;
+    if (!*s || *s == '-' || *s == '+')
+        return -EINVAL;
+    errno = 0;
+    unsigned long v = strtoul(s, &end, 10);
+    if (errno || *end || v < lo || v > hi)
+        return -EINVAL;
+    *out = v;
+    return 0;
+}
+
+static int parse_bool(const char *s, bool *out)
+{
+    if (!strcasecmp(s, "true") || !strcasecmp(s, "yes") || !strcmp(s, "1") || !strcasecmp(s, "on"))
+        *out = true;
+    else if (!strcasecmp(s, "false") || !strcasecmp(s, "no") || !strcmp(s, "0") || !strcasecmp(s, "off"))
+        *out = false;
+    else
+        return -EINVAL;
+    return 0;
+}
+
+int hd_parse_uint_list(const char *s, uint32_t *out, unsigned max, uint32_t limit)
+{
+    unsigned n = 0;
+    const char *p = s;
+    for (;;) {
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (*p < '0' || *p > '9')
+            return -EINVAL;
+        char *end;
+        errno = 0;
+        unsigned long v = strtoul(p, &end, 10);
+        if (errno || v > limit || n >= max)
+            return -EINVAL;
+        out[n++] = (uint32_t)v;
+        p = end;
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (*p == '\0')
+            return (int)n;
+        if (*p != ',')
+            return -EINVAL;
+        p++;
+    }
+}
+
+static int copy_str(struct parse_ctx *c, const char *sec, const char *key, char *dst, size_t cap, const char *v)
+{
+    if (!*v)
+        return bad(c, sec, key, "empty value");
+    if (strlen(v) >= cap)
+        return bad(c, sec, key, "longer than %zu characters", cap - 1);
+    strcpy(dst, v);
+    return 1;
+}
+
+static int copy_path(struct parse_ctx *c, const char *sec, const char *key, char *dst, const char *v)
+{
+    if (!*v)
+        return bad(c, sec, key, "empty path");
+    int n = v[0] == '/' ? snprintf(dst, HD_PATH_MAX, "%s", v) : snprintf(dst, HD_PATH_MAX, "%s/%s", c->dir, v);
+    if (n < 0 || n >= (int)HD_PATH_MAX)
+        return bad(c, sec, key, "path longer than %u characters", HD_PATH_MAX - 1);
+    return 1;
+}
+
+#define UINT_KEY(field, lo, hi)                                                                         \
+    do {                                                                                                \
+        unsigned long v_;                                                                               \
+        if (parse_uint(value, (lo), (hi), &v_))                                                         \
+            return bad(c, section, name, "'%s' is not an integer in %lu..%lu", value,                  \
+                       (unsigned long)(lo), (unsigned long)(hi));                                       \
+        (field) = (unsigned)v_;                                                                         \
+        return 1;                                                                                       \
+    } while (0)
+
+static int alsa_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
+{
+    struct hd_board *b = c->b;
+    if (!strcmp(name, "device"))
+        return copy_str(c, section, name, b->alsa_device, sizeof b->alsa_device, value);
+    if (!strcmp(name, "config"))
+        return copy_path(c, section, name, b->alsa_config, value);
+    if (!strcmp(name, "channels"))
+        UINT_KEY(b->channels, 1, HD_MAX_CHANNELS);
+    if (!strcmp(name, "rate_hz"))
+        UINT_KEY(b->rate_hz, 8000, 768000);
+    if (!strcmp(name, "period_frames"))
+        UINT_KEY(b->period_frames, 16, 8192);
+    if (!strcmp(name, "periods"))
+        UINT_KEY(b->periods, 2, 32);
+    if (!strcmp(name, "format")) {
+        if (!strcmp(value, "S16_LE"))
+            b->format = HD_FMT_S16_LE;
+        else if (!strcmp(value, "S32_LE"))
+            b->format = HD_FMT_S32_LE;
+        else
+            return bad(c, section, name, "'%s' is not S16_LE or S32_LE", value);
+        return 1;
+    }
+    if (!strcmp(name, "channel_map")) {
+        uint32_t map[HD_MAX_CHANNELS];
+        int n = hd_parse_uint_list(value, map, HD_MAX_CHANNELS, HD_MAX_CHANNELS - 1);
+        if (n < 1)
+            return bad(c, section, name, "'%s' is not a list of 1..%u ALSA channel numbers (0..%u)", value,
+                       HD_MAX_CHANNELS, HD_MAX_CHANNELS - 1);
+        b->map_count = (unsigned)n;
+        for (int i = 0; i < n; i++)
+            b->channel_map[i] = map[i];
+        return 1;
+    }
+    if (!strcmp(name, "pacing")) {
+        if (!strcmp(value, "device"))
+            b->pacing = HD_PACE_DEVICE;
+        else if (!strcmp(value, "clock"))
+            b->pacing = HD_PACE_CLOCK;
+        else
+            return bad(c, section, name, "'%s' is not 'device' or 'clock'", value);
+        return 1;
+    }
+    return bad(c, section, name, "unknown key");
+}
+
+static int line_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
+{
+    unsigned long offset;
+    if (parse_uint(section + 5, 0, 1023, &offset))
+        return bad(c, section, name, "section name must be [line N] with N a GPIO line offset 0..1023");
+    struct hd_board *b = c->b;
+    unsigned i;
+    for (i = 0; i < b->line_count; i++)
+        if (b->lines[i].offset == offset)
+            break;
+    if (i == b->line_count) {
+        if (b->line_count == HD_MAX_LINES)
+            return bad(c, section, name, "more than %u trigger lines", HD_MAX_LINES);
+        b->line_count++;
+        memset(&b->lines[i], 0, sizeof b->lines[i]);
+        b->lines[i].offset = (unsigned)offset;
+    }
+    struct hd_line *l = &b->lines[i];
+    if (!strcmp(name, "foci")) {
+        int n = hd_parse_uint_list(value, l->focus_ids, HD_MAX_EVENT_FOCI, UINT32_MAX);
+        if (n < 1)
+            return bad(c, section, name, "'%s' is not a list of 1..%u focus ids", value, HD_MAX_EVENT_FOCI);
+        l->focus_count = (unsigned)n;
+        return 1;
+    }
+    if (!strcmp(name, "active_low")) {
+        if (parse_bool(value, &l->active_low))
+            return bad(c, section, name, "'%s' is not true or false", value);
+        return 1;
+    }
+    if (!strcmp(name, "bias")) {
+        if (!strcmp(value, "as-is"))
+            l->bias = HD_BIAS_AS_IS;
+        else if (!strcmp(value, "disable"))
+            l->bias = HD_BIAS_DISABLE;
+        else if (!strcmp(value, "pull-up"))
+            l->bias = HD_BIAS_PULL_UP;
+        else if (!strcmp(value, "pull-down"))
+            l->bias = HD_BIAS_PULL_DOWN;
+        else
+            return bad(c, section, name, "'%s' is not as-is, disable, pull-up or pull-down", value);
+        return 1;
+    }
+    return bad(c, section, name, "unknown key");
+}
+
+static int handler(void *user, const char *section, const char *name, const char *value)
+{
+    struct parse_ctx *c = user;
+    struct hd_board *b = c->b;
+    if (!strcmp(section, "alsa"))
+        return alsa_key(c, section, name, value);
+    if (!strncmp(section, "line ", 5))
+        return line_key(c, section, name, value);
+    if (!strcmp(section, "gpio")) {
+        if (!strcmp(name, "chip"))
+            return copy_str(c, section, name, b->gpio_chip, sizeof b->gpio_chip, value);
+        if (!strcmp(name, "lockout_ms"))
+            UINT_KEY(b->lockout_ms, 0, 10000);
+        return bad(c, section, name, "unknown key");
+    }
+    if (!strcmp(section, "mixer")) {
+        if (!strcmp(name, "gain_limit")) {
+            char *end;
+            errno = 0;
+            double v = strtod(value, &end);
+            if (errno || end == value || *end || !(v > 0.0 && v <= 16.0))
+                return bad(c, section, name, "'%s' is not a number in (0, 16]", value);
+            b->gain_limit = v;
+            return 1;
+        }
+        return bad(c, section, name, "unknown key");
+    }
+    if (!strcmp(section, "table")) {
+        if (!strcmp(name, "path"))
+            return copy_path(c, section, name, b->table_path, value);
+        return bad(c, section, name, "unknown key");
+    }
+    if (!strcmp(section, "realtime")) {
+        if (!strcmp(name, "priority")) {
+            unsigned long v;
+            if (parse_uint(value, 0, 99, &v))
+                return bad(c, section, name, "'%s' is not an integer in 0..99", value);
+            b->rt_priority = (int)v;
+            return 1;
+        }
+        if (!strcmp(name, "mlock")) {
+            if (parse_bool(value, &b->mlock))
+                return bad(c, section, name, "'%s' is not true or false", value);
+            return 1;
+        }
+        return bad(c, section, name, "unknown key");
+    }
+    return bad(c, section[0] ? section : "(none)", name, "unknown section");
+}
+
+/* Checks that involve several keys; messages name the key they blame. */
+static int cross_check(struct parse_ctx *c)
+{
+    struct hd_board *b = c->b;
+    if (!b->alsa_device[0])
+        return bad(c, "alsa", "device", "missing (required)");
+    if (b->map_count > b->channels)
+        return bad(c, "alsa", "channel_map", "%u entries but the device has %u channels", b->map_count,
+                   b->channels);
+    for (unsigned i = 0; i < b->map_count; i++) {
+        if (b->channel_map[i] >= b->channels)
+            return bad(c, "alsa", "channel_map", "entry %u is ALSA channel %u, the device has 0..%u", i,
+                       b->channel_map[i], b->channels - 1);
+        for (unsigned j = 0; j < i; j++)
+            if (b->channel_map[j] == b->channel_map[i])
+                return bad(c, "alsa", "channel_map", "ALSA channel %u appears twice", b->channel_map[i]);
+    }
+    for (unsigned i = 0; i < b->line_count; i++) {
+        char sec[32];
+        snprintf(sec, sizeof sec, "line %u", b->lines[i].offset);
+        if (b->lines[i].focus_count == 0)
+            return bad(c, sec, "foci", "missing (each line plays at least one focus)");
+    }
+    if (b->line_count > 0 && !b->gpio_chip[0])
+        return bad(c, "gpio", "chip", "missing but [line N] sections are present");
+    return 0;
+}
+
+static void set_dir(struct parse_ctx *c, const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash)
+        strcpy(c->dir, ".");
+    else if (slash == path)
+        strcpy(c->dir, "/");
+    else
+        snprintf(c->dir, sizeof c->dir, "%.*s", (int)(slash - path), path);
+}
+
+static int finish(struct parse_ctx *c, int rc, const char *path, char err[HD_ERR_MAX])
+{
+    if (rc == 0 && !c->failed)
+        cross_check(c);
+    if (rc > 0 || c->failed) {
+        if (rc > 0)
+            snprintf(err, HD_ERR_MAX, "%.200s:%d: %.290s", path, rc, c->failed ? c->msg : "syntax error");
+        else
+            snprintf(err, HD_ERR_MAX, "%.200s: %.290s", path, c->msg);
+        return -EINVAL;
+    }
+    if (rc < 0) {
+        snprintf(err, HD_ERR_MAX, "%s: out of memory while parsing", path);
+        return -ENOMEM;
+    }
+    return 0;
+}
+
+int hd_board_parse_string(const char *text, const char *path, struct hd_board *b, char err[HD_ERR_MAX])
+{
+    struct parse_ctx c = {.b = b};
+    hd_board_defaults(b);
+    snprintf(b->path, sizeof b->path, "%s", path);
+    set_dir(&c, path);
+    int rc = ini_parse_string(text, handler, &c);
+    return finish(&c, rc, path, err);
+}
+
+int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX])
+{
+    struct parse_ctx c = {.b = b};
+    hd_board_defaults(b);
+    if (strlen(path) >= sizeof b->path) {
+        snprintf(err, HD_ERR_MAX, "%.100s...: board path too long", path);
+        return -ENAMETOOLONG;
+    }
+    snprintf(b->path, sizeof b->path, "%s", path);
+    set_dir(&c, path);
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        int e = errno;
+        snprintf(err, HD_ERR_MAX, "%s: cannot open board file: %s", path, strerror(e));
+        return -e;
+    }
+    int rc = ini_parse_file(f, handler, &c);
+    fclose(f);
+    return finish(&c, rc, path, err);
+}

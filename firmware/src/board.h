@@ -1,0 +1,75 @@
+/* board.h - a board description (board.ini, parsed with inih).
+ *
+ * Every key, its unit and its default are documented in docs/firmware.md.
+ * Relative paths in the file are resolved against the board file's folder.
+ * Errors are one line: "FILE:LINE: [section] key: what is wrong".
+ */
+#ifndef HD_BOARD_H
+#define HD_BOARD_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#define HD_MAX_CHANNELS 32u       /* ALSA channels (= HAPTIC_TABLE_MAX_CHANNELS) */
+#define HD_MAX_LINES 32u          /* GPIO trigger lines per board */
+#define HD_MAX_EVENT_FOCI 16u     /* foci one trigger may select */
+#define HD_PATH_MAX 512u
+#define HD_ERR_MAX 1400u
+
+enum hd_sample_format { HD_FMT_S16_LE = 1, HD_FMT_S32_LE = 2 };
+enum hd_bias { HD_BIAS_AS_IS = 0, HD_BIAS_DISABLE, HD_BIAS_PULL_UP, HD_BIAS_PULL_DOWN };
+enum hd_pacing { HD_PACE_DEVICE = 0, HD_PACE_CLOCK };
+
+struct hd_line {
+    unsigned offset;               /* GPIO line offset on the chip */
+    bool active_low;               /* touch pulls the line low: the press edge is falling */
+    enum hd_bias bias;
+    unsigned focus_count;
+    uint32_t focus_ids[HD_MAX_EVENT_FOCI]; /* table focus ids this line plays */
+};
+
+struct hd_board {
+    char path[HD_PATH_MAX];        /* the board file itself (for messages) */
+    /* [alsa] */
+    char alsa_device[256];
+    char alsa_config[HD_PATH_MAX]; /* optional local ALSA config (host-sim), "" if none */
+    unsigned channels;             /* ALSA channel count */
+    enum hd_sample_format format;
+    unsigned rate_hz;
+    unsigned period_frames;
+    unsigned periods;
+    unsigned map_count;            /* = table channel count the board expects */
+    unsigned channel_map[HD_MAX_CHANNELS]; /* exciter (table channel) -> ALSA channel */
+    enum hd_pacing pacing;
+    /* [gpio] */
+    char gpio_chip[64];            /* "" when the board has no GPIO triggers */
+    unsigned lockout_ms;
+    unsigned line_count;
+    struct hd_line lines[HD_MAX_LINES];
+    /* [mixer] */
+    double gain_limit;             /* upper bound of the mix gain g (1 = table full scale) */
+    /* [table] */
+    char table_path[HD_PATH_MAX];  /* "" if none (then --table is required) */
+    /* [realtime] */
+    int rt_priority;               /* SCHED_FIFO priority of the audio thread, 0 = do not ask */
+    bool mlock;
+};
+
+/* Defaults for every key (64 frames x 2 periods, 48 kHz, S32_LE, 8 channels, identity map). */
+void hd_board_defaults(struct hd_board *b);
+
+/* Parse a board file. Returns 0, or -errno / -EINVAL with a one-line message in err. */
+int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX]);
+
+/* Parse board text held in memory; `path` is used for messages and relative paths. */
+int hd_board_parse_string(const char *text, const char *path, struct hd_board *b, char err[HD_ERR_MAX]);
+
+/* Parse "1,4, 7" into at most `max` unsigned values (each <= limit). Returns the count or -EINVAL. */
+int hd_parse_uint_list(const char *s, uint32_t *out, unsigned max, uint32_t limit);
+
+/* Buffer latency the board asks for, in seconds: period_frames * periods / rate_hz. */
+double hd_board_buffer_latency_s(const struct hd_board *b);
+
+const char *hd_format_name(enum hd_sample_format f);
+
+#endif

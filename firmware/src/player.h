@@ -1,0 +1,62 @@
+/* player.h - the per-period render: which voices play and how triggers start them.
+ *
+ * Policy for a trigger during playback: ADD. Every trigger starts a new voice
+ * at the next period boundary; voices already playing continue to their end
+ * untouched (cutting a voice would click, and its focus would be lost).
+ * Triggers that arrive before the same period boundary are merged into ONE
+ * voice whose foci are the union of theirs (several fingers at once), with
+ * one energy-normalized gain for the union. Overlapping voices add; their
+ * sum saturates (counted in clipped_samples) instead of wrapping around.
+ * At most HD_MAX_VOICES play at once: a new voice takes the place of the
+ * oldest one (counted in voices_stolen), so the newest touch always answers.
+ */
+#ifndef HD_PLAYER_H
+#define HD_PLAYER_H
+
+#include "mixer.h"
+
+#include <stdint.h>
+
+#define HD_MAX_VOICES 8u
+
+struct hd_voice {
+    const struct hd_program *program;   /* NULL: slot free */
+    struct hd_mix mix;
+    uint32_t position;                  /* next sample of the signals to play */
+};
+
+struct hd_player_stats {
+    uint64_t voices_started, voices_stolen, clipped_samples, unknown_foci, dropped_foci;
+};
+
+struct hd_player {
+    struct hd_voice voices[HD_MAX_VOICES];
+    uint32_t frames_max;                /* period size the scratch buffer holds */
+    uint32_t channels;                  /* device channels */
+    enum hd_sample_format format;
+    uint32_t map_count;
+    uint32_t channel_map[HD_MAX_CHANNELS];
+    double gain_limit;
+    int64_t *acc;                       /* [frames_max][channels], allocated once at init */
+    struct hd_player_stats stats;
+};
+
+int hd_player_init(struct hd_player *pl, const struct hd_board *b);
+void hd_player_free(struct hd_player *pl);
+
+/* Start one voice playing the union of the given focus ids (resolved in p;
+ * unknown ids are skipped and counted). Returns 1 if a voice started, 0 if
+ * nothing was playable. Real-time safe. */
+int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint32_t *ids, uint32_t count);
+
+/* Start a voice from a precomputed mix (tests, benchmarks). */
+void hd_player_start_mix(struct hd_player *pl, const struct hd_program *p, const struct hd_mix *m);
+
+/* Render `frames` (<= frames_max) interleaved frames in the device format into out. */
+void hd_player_render(struct hd_player *pl, void *out, uint32_t frames);
+
+/* Number of voices playing; and whether any plays from program p. */
+uint32_t hd_player_active(const struct hd_player *pl);
+int hd_player_uses(const struct hd_player *pl, const struct hd_program *p);
+
+#endif

@@ -1,0 +1,119 @@
+/* program.c - table loading and the precomputation for the mixer. */
+#define _POSIX_C_SOURCE 200809L
+#include "program.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int cmp_key(const void *a, const void *b)
+{
+    const struct hd_focus_key *x = a, *y = b;
+    return x->id < y->id ? -1 : x->id > y->id;
+}
+
+int32_t hd_program_find(const struct hd_program *p, uint32_t id)
+{
+    uint32_t lo = 0, hi = p->focus_count;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (p->by_id[mid].id < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < p->focus_count && p->by_id[lo].id == id ? (int32_t)p->by_id[lo].index : -1;
+}
+
+static int check_against_board(const haptic_table *t, const char *path, const struct hd_board *b,
+                               char err[HD_ERR_MAX])
+{
+    if (t->sample_rate_hz != b->rate_hz) {
+        snprintf(err, HD_ERR_MAX, "%s: table rate %lu Hz does not match the board's [alsa] rate_hz %u (%s)", path,
+                 (unsigned long)t->sample_rate_hz, b->rate_hz, b->path);
+        return -EINVAL;
+    }
+    if (t->channel_count != b->map_count) {
+        snprintf(err, HD_ERR_MAX,
+                 "%s: table has %u exciter channels, the board's [alsa] channel_map has %u entries (%s)", path,
+                 (unsigned)t->channel_count, b->map_count, b->path);
+        return -EINVAL;
+    }
+    return 0;
+}
+
+int hd_program_from_table(const haptic_table *t, const struct hd_board *b, struct hd_program **out,
+                          char err[HD_ERR_MAX])
+{
+    int rc = check_against_board(t, "table", b, err);
+    if (rc)
+        return rc;
+    struct hd_program *p = calloc(1, sizeof *p);
+    if (!p)
+        goto nomem;
+    p->table = *t;
+    p->table.owned = NULL;
+    p->focus_count = t->focus_count;
+    p->channel_count = t->channel_count;
+    p->samples = t->samples_per_signal;
+    p->blocks = (p->samples + HD_PEAK_BLOCK - 1) / HD_PEAK_BLOCK;
+    p->by_id = calloc(p->focus_count, sizeof *p->by_id);
+    p->block_peak = calloc((size_t)p->focus_count * p->blocks * p->channel_count, sizeof *p->block_peak);
+    if (!p->by_id || !p->block_peak)
+        goto nomem;
+    for (uint32_t f = 0; f < p->focus_count; f++) {
+        haptic_focus_info info;
+        haptic_table_focus(t, f, &info);
+        p->by_id[f].id = info.id;
+        p->by_id[f].index = f;
+        const int16_t *s = haptic_table_signal(t, f);
+        uint16_t *peak = p->block_peak + (size_t)f * p->blocks * p->channel_count;
+        for (uint32_t n = 0; n < p->samples; n++) {
+            uint16_t *row = peak + (size_t)(n / HD_PEAK_BLOCK) * p->channel_count;
+            for (uint32_t c = 0; c < p->channel_count; c++) {
+                int v = s[(size_t)n * p->channel_count + c];
+                uint16_t a = (uint16_t)(v < 0 ? -v : v);
+                if (a > row[c])
+                    row[c] = a;
+            }
+        }
+    }
+    qsort(p->by_id, p->focus_count, sizeof *p->by_id, cmp_key);
+    *out = p;
+    return 0;
+nomem:
+    hd_program_free(p);
+    snprintf(err, HD_ERR_MAX, "out of memory preparing the table");
+    return -ENOMEM;
+}
+
+int hd_program_load(const char *path, const struct hd_board *b, struct hd_program **out, char err[HD_ERR_MAX])
+{
+    haptic_table t;
+    haptic_table_error terr;
+    if (haptic_table_open(path, &t, &terr) != 0) {
+        snprintf(err, HD_ERR_MAX, "%s: %s", path, terr.message);
+        return terr.code == HAPTIC_TABLE_ENOMEM ? -ENOMEM : -EINVAL;
+    }
+    int rc = check_against_board(&t, path, b, err);
+    if (rc == 0)
+        rc = hd_program_from_table(&t, b, out, err);
+    if (rc) {
+        haptic_table_close(&t);
+        return rc;
+    }
+    (*out)->table.owned = t.owned; /* the program now frees the file buffer */
+    snprintf((*out)->path, sizeof (*out)->path, "%s", path);
+    return 0;
+}
+
+void hd_program_free(struct hd_program *p)
+{
+    if (!p)
+        return;
+    haptic_table_close(&p->table);
+    free(p->by_id);
+    free(p->block_peak);
+    free(p);
+}

@@ -1,0 +1,47 @@
+/* program.h - a loaded table plus what the real-time path needs from it,
+ * precomputed once at load (never on the real-time path): the focus id ->
+ * index lookup and the block-peak envelope used by the peak limit. */
+#ifndef HD_PROGRAM_H
+#define HD_PROGRAM_H
+
+#include "board.h"
+
+#include <haptic_table.h>
+#include <stdint.h>
+
+#define HD_PEAK_BLOCK 64u  /* frames per block of the peak envelope */
+
+struct hd_focus_key {
+    uint32_t id;
+    uint32_t index;
+};
+
+struct hd_program {
+    haptic_table table;
+    uint32_t focus_count, channel_count, samples;
+    struct hd_focus_key *by_id;  /* sorted by id */
+    uint32_t blocks;             /* ceil(samples / HD_PEAK_BLOCK) */
+    uint16_t *block_peak;        /* [focus][block][channel]: max |s| in that block (<= 32768) */
+    char path[HD_PATH_MAX];
+};
+
+/* Open and validate a table file, check it against the board (rate, channel
+ * count = channel_map length), precompute. One-line error in err. */
+int hd_program_load(const char *path, const struct hd_board *b, struct hd_program **out, char err[HD_ERR_MAX]);
+
+/* Same from a table already validated in memory (tests, benchmarks); the
+ * program takes ownership of nothing: the caller keeps `data` alive. */
+int hd_program_from_table(const haptic_table *t, const struct hd_board *b, struct hd_program **out,
+                          char err[HD_ERR_MAX]);
+
+void hd_program_free(struct hd_program *p);
+
+/* Index of the focus with this id, or -1 (binary search, real-time safe). */
+int32_t hd_program_find(const struct hd_program *p, uint32_t id);
+
+static inline const int16_t *hd_program_signal(const struct hd_program *p, uint32_t index)
+{
+    return haptic_table_signal(&p->table, index);
+}
+
+#endif

@@ -1,0 +1,56 @@
+/* spsc.h - lock-free single-producer single-consumer ring of trigger events
+ * (C11 atomics). The trigger thread pushes, the real-time audio thread pops.
+ * Fixed capacity, no allocation: a full ring drops the new event and counts
+ * it, so a trigger storm cannot grow memory or block either side. */
+#ifndef HD_SPSC_H
+#define HD_SPSC_H
+
+#include "trigger.h"
+
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+#define HD_RING_SIZE 256u /* power of two */
+
+struct hd_spsc {
+    _Alignas(64) _Atomic uint32_t head;   /* next slot to pop (consumer writes) */
+    _Alignas(64) _Atomic uint32_t tail;   /* next slot to push (producer writes) */
+    _Atomic uint64_t dropped;
+    struct hd_event slots[HD_RING_SIZE];
+};
+
+static inline void hd_spsc_init(struct hd_spsc *r)
+{
+    atomic_init(&r->head, 0);
+    atomic_init(&r->tail, 0);
+    atomic_init(&r->dropped, 0);
+}
+
+/* Producer side. Returns false (and counts a drop) when the ring is full. */
+static inline bool hd_spsc_push(struct hd_spsc *r, const struct hd_event *ev)
+{
+    uint32_t t = atomic_load_explicit(&r->tail, memory_order_relaxed);
+    uint32_t h = atomic_load_explicit(&r->head, memory_order_acquire);
+    if (t - h == HD_RING_SIZE) {
+        atomic_fetch_add_explicit(&r->dropped, 1, memory_order_relaxed);
+        return false;
+    }
+    r->slots[t & (HD_RING_SIZE - 1)] = *ev;
+    atomic_store_explicit(&r->tail, t + 1, memory_order_release);
+    return true;
+}
+
+/* Consumer side. Returns false when empty. */
+static inline bool hd_spsc_pop(struct hd_spsc *r, struct hd_event *ev)
+{
+    uint32_t h = atomic_load_explicit(&r->head, memory_order_relaxed);
+    uint32_t t = atomic_load_explicit(&r->tail, memory_order_acquire);
+    if (h == t)
+        return false;
+    *ev = r->slots[h & (HD_RING_SIZE - 1)];
+    atomic_store_explicit(&r->head, h + 1, memory_order_release);
+    return true;
+}
+
+#endif

@@ -1,0 +1,250 @@
+/* board.ini: every key, and every bad value gives a one-line error naming the file and the key. */
+#include "board.h"
+
+#include <errno.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+#include <cmocka.h>
+
+static const char *full =
+    "[alsa]\n"
+    "device = hw:CARD=Device,DEV=0\n"
+    "config = my.asoundrc\n"
+    "channels = 10\n"
+    "format = S16_LE\n"
+    "rate_hz = 44100\n"
+    "period_frames = 32\n"
+    "periods = 3\n"
+    "channel_map = 9, 8,7,6,5,4,3,2\n"
+    "pacing = clock\n"
+    "[gpio]\n"
+    "chip = gpiochip4\n"
+    "lockout_ms = 120\n"
+    "[line 17]\n"
+    "foci = 3\n"
+    "active_low = true\n"
+    "bias = pull-up\n"
+    "[line 27]\n"
+    "foci = 1, 4,4000000000\n"
+    "active_low = no\n"
+    "bias = pull-down\n"
+    "[line 5]\n"
+    "foci = 2\n"
+    "bias = disable\n"
+    "[mixer]\n"
+    "gain_limit = 0.5\n"
+    "[table]\n"
+    "path = /var/lib/hapticd/plate.htab\n"
+    "[realtime]\n"
+    "priority = 70\n"
+    "mlock = off\n";
+
+static void every_key(void **state)
+{
+    (void)state;
+    struct hd_board b;
+    char err[HD_ERR_MAX] = "";
+    assert_int_equal(hd_board_parse_string(full, "boards/x/board.ini", &b, err), 0);
+    assert_string_equal(b.alsa_device, "hw:CARD=Device,DEV=0");
+    assert_string_equal(b.alsa_config, "boards/x/my.asoundrc");
+    assert_int_equal(b.channels, 10);
+    assert_int_equal(b.format, HD_FMT_S16_LE);
+    assert_int_equal(b.rate_hz, 44100);
+    assert_int_equal(b.period_frames, 32);
+    assert_int_equal(b.periods, 3);
+    assert_int_equal(b.map_count, 8);
+    for (unsigned i = 0; i < 8; i++)
+        assert_int_equal(b.channel_map[i], 9 - i);
+    assert_int_equal(b.pacing, HD_PACE_CLOCK);
+    assert_string_equal(b.gpio_chip, "gpiochip4");
+    assert_int_equal(b.lockout_ms, 120);
+    assert_int_equal(b.line_count, 3);
+    assert_int_equal(b.lines[0].offset, 17);
+    assert_true(b.lines[0].active_low);
+    assert_int_equal(b.lines[0].bias, HD_BIAS_PULL_UP);
+    assert_int_equal(b.lines[0].focus_count, 1);
+    assert_int_equal(b.lines[0].focus_ids[0], 3);
+    assert_int_equal(b.lines[1].offset, 27);
+    assert_false(b.lines[1].active_low);
+    assert_int_equal(b.lines[1].bias, HD_BIAS_PULL_DOWN);
+    assert_int_equal(b.lines[1].focus_count, 3);
+    assert_int_equal(b.lines[1].focus_ids[2], 4000000000u);
+    assert_int_equal(b.lines[2].offset, 5);
+    assert_false(b.lines[2].active_low);
+    assert_int_equal(b.lines[2].bias, HD_BIAS_DISABLE);
+    assert_true(b.gain_limit == 0.5);
+    assert_string_equal(b.table_path, "/var/lib/hapticd/plate.htab");
+    assert_int_equal(b.rt_priority, 70);
+    assert_false(b.mlock);
+    /* 32 frames x 3 periods at 44.1 kHz */
+    assert_true(hd_board_buffer_latency_s(&b) == 96.0 / 44100.0);
+}
+
+static void defaults(void **state)
+{
+    (void)state;
+    struct hd_board b;
+    char err[HD_ERR_MAX] = "";
+    assert_int_equal(hd_board_parse_string("[alsa]\ndevice = hw:0\n", "b.ini", &b, err), 0);
+    assert_int_equal(b.channels, 8);
+    assert_int_equal(b.format, HD_FMT_S32_LE);
+    assert_int_equal(b.rate_hz, 48000);
+    assert_int_equal(b.period_frames, 64);
+    assert_int_equal(b.periods, 2);
+    assert_int_equal(b.map_count, 8);
+    for (unsigned i = 0; i < 8; i++)
+        assert_int_equal(b.channel_map[i], i);
+    assert_int_equal(b.pacing, HD_PACE_DEVICE);
+    assert_int_equal(b.line_count, 0);
+    assert_true(b.gain_limit == 1.0);
+    assert_string_equal(b.table_path, "");
+    assert_string_equal(b.alsa_config, "");
+    assert_int_equal(b.rt_priority, 80);
+    assert_true(b.mlock);
+    assert_true(hd_board_buffer_latency_s(&b) == 128.0 / 48000.0);
+}
+
+struct bad_case {
+    const char *text;  /* appended after a valid [alsa] device line unless it starts with '!' */
+    const char *names; /* what the message must contain */
+    int line;          /* expected line number in the message, 0: none */
+};
+
+static const struct bad_case cases[] = {
+    {"[alsa]\nchannels = 0\n", "[alsa] channels", 4},
+    {"[alsa]\nchannels = 33\n", "[alsa] channels", 4},
+    {"[alsa]\nchannels = eight\n", "[alsa] channels", 4},
+    {"[alsa]\nchannels = -8\n", "[alsa] channels", 4},
+    {"[alsa]\nrate_hz = 7999\n", "[alsa] rate_hz", 4},
+    {"[alsa]\nrate_hz = 48k\n", "[alsa] rate_hz", 4},
+    {"[alsa]\nrate_hz = 99999999999999999999999\n", "[alsa] rate_hz", 4},
+    {"[alsa]\nperiod_frames = 8\n", "[alsa] period_frames", 4},
+    {"[alsa]\nperiods = 1\n", "[alsa] periods", 4},
+    {"[alsa]\nperiods = 33\n", "[alsa] periods", 4},
+    {"[alsa]\nformat = S24_LE\n", "[alsa] format", 4},
+    {"[alsa]\nchannel_map = 0,x\n", "[alsa] channel_map", 4},
+    {"[alsa]\nchannel_map = 0,,1\n", "[alsa] channel_map", 4},
+    {"[alsa]\nchannel_map = 32\n", "[alsa] channel_map", 4},
+    {"[alsa]\nchannel_map = 0,1,1\n", "[alsa] channel_map", 0},
+    {"[alsa]\nchannel_map = 0,1,2,3,4,5,6,7,8\n", "[alsa] channel_map", 0},
+    {"[alsa]\nchannels = 4\nchannel_map = 0,1,2,5\n", "[alsa] channel_map", 0},
+    {"[alsa]\npacing = fast\n", "[alsa] pacing", 4},
+    {"[alsa]\nconfig =\n", "[alsa] config", 4},
+    {"[alsa]\nvolume = 3\n", "[alsa] volume", 4},
+    {"!device =\n", "[alsa] device", 1},
+    {"!channels = 8\n", "[alsa] device", 0},
+    {"[gpio]\nchip = gpiochip0\nlockout_ms = 10001\n", "[gpio] lockout_ms", 5},
+    {"[gpio]\nlockout_ms = -1\n", "[gpio] lockout_ms", 4},
+    {"[gpio]\nbounce = 3\n", "[gpio] bounce", 4},
+    {"[gpio]\nchip = 0\n[line 3]\nfoci = \n", "[line 3] foci", 6},
+    {"[gpio]\nchip = 0\n[line 3]\nfoci = a\n", "[line 3] foci", 6},
+    {"[gpio]\nchip = 0\n[line 3]\nfoci = 1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17\n", "[line 3] foci", 6},
+    {"[gpio]\nchip = 0\n[line 3]\nfoci = 4294967296\n", "[line 3] foci", 6},
+    {"[gpio]\nchip = 0\n[line 3]\nfoci = 1\nactive_low = maybe\n", "[line 3] active_low", 7},
+    {"[gpio]\nchip = 0\n[line 3]\nfoci = 1\nbias = up\n", "[line 3] bias", 7},
+    {"[gpio]\nchip = 0\n[line 3]\nfoci = 1\nedge = both\n", "[line 3] edge", 7},
+    {"[gpio]\nchip = 0\n[line 3]\nbias = pull-up\n", "[line 3] foci", 0},
+    {"[gpio]\nchip = 0\n[line x]\nfoci = 1\n", "[line x] foci", 6},
+    {"[gpio]\nchip = 0\n[line 1024]\nfoci = 1\n", "[line 1024] foci", 6},
+    {"[line 3]\nfoci = 1\n", "[gpio] chip", 0},
+    {"[mixer]\ngain_limit = 0\n", "[mixer] gain_limit", 4},
+    {"[mixer]\ngain_limit = 17\n", "[mixer] gain_limit", 4},
+    {"[mixer]\ngain_limit = nan\n", "[mixer] gain_limit", 4},
+    {"[mixer]\ngain_limit = 1x\n", "[mixer] gain_limit", 4},
+    {"[table]\npath =\n", "[table] path", 4},
+    {"[table]\nfile = x\n", "[table] file", 4},
+    {"[realtime]\npriority = 100\n", "[realtime] priority", 4},
+    {"[realtime]\nmlock = sometimes\n", "[realtime] mlock", 4},
+    {"[realtime]\nnice = 1\n", "[realtime] nice", 4},
+    {"[audio]\nx = 1\n", "[audio] x", 4},
+    {"[alsa]\nthis is not ini\n", "syntax error", 4},
+};
+
+static void bad_values(void **state)
+{
+    (void)state;
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char text[1024];
+        if (cases[i].text[0] == '!')
+            snprintf(text, sizeof text, "[alsa]\n%s", cases[i].text + 1);
+        else
+            snprintf(text, sizeof text, "[alsa]\ndevice = hw:0\n\n%s", cases[i].text);
+        struct hd_board b;
+        char err[HD_ERR_MAX] = "";
+        int rc = hd_board_parse_string(text, "boards/t/board.ini", &b, err);
+        if (rc != -EINVAL || !strstr(err, cases[i].names) || strchr(err, '\n') ||
+            strncmp(err, "boards/t/board.ini", 18) != 0)
+            fail_msg("case %zu (%s): rc %d, message '%s'", i, cases[i].names, rc, err);
+        if (cases[i].line) {
+            char want[64];
+            snprintf(want, sizeof want, "boards/t/board.ini:%d: ", cases[i].line + 1);
+            if (strncmp(err, want, strlen(want)) != 0)
+                fail_msg("case %zu: expected '%s' prefix, got '%s'", i, want, err);
+        }
+    }
+}
+
+static void missing_file(void **state)
+{
+    (void)state;
+    struct hd_board b;
+    char err[HD_ERR_MAX] = "";
+    assert_int_equal(hd_board_load("/nonexistent/dir/board.ini", &b, err), -ENOENT);
+    assert_non_null(strstr(err, "/nonexistent/dir/board.ini"));
+    assert_null(strchr(err, '\n'));
+}
+
+static void shipped_boards_parse(void **state)
+{
+    (void)state;
+    static const char *const names[] = {"host-sim", "usb-8ch", "rpi5-dac8x", "bbb-mcasp-tdm8"};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+        char path[HD_PATH_MAX];
+        snprintf(path, sizeof path, "%s/%s/board.ini", BOARDS_DIR, names[i]);
+        struct hd_board b;
+        char err[HD_ERR_MAX] = "";
+        if (hd_board_load(path, &b, err) != 0)
+            fail_msg("%s", err);
+        assert_int_equal(b.map_count, 8);
+        assert_int_equal(b.rate_hz, 48000);
+        /* The default: 64 frames x 2 periods at 48 kHz (2.7 ms). */
+        assert_int_equal(b.period_frames, 64);
+        assert_int_equal(b.periods, 2);
+        if (i == 0) {
+            assert_int_equal(b.pacing, HD_PACE_CLOCK);
+            assert_int_equal(b.line_count, 0);
+            assert_non_null(strstr(b.alsa_config, "boards/host-sim/asoundrc"));
+        } else {
+            assert_int_equal(b.pacing, HD_PACE_DEVICE);
+            assert_true(b.line_count >= 3);
+            assert_true(strncmp(b.alsa_device, "hw:", 3) == 0); /* hw:, never dmix */
+        }
+    }
+}
+
+static void uint_list(void **state)
+{
+    (void)state;
+    uint32_t v[4];
+    assert_int_equal(hd_parse_uint_list("1", v, 4, 10), 1);
+    assert_int_equal(hd_parse_uint_list(" 1 , 2,3 ", v, 4, 10), 3);
+    assert_int_equal(v[0] + v[1] + v[2], 6);
+    assert_int_equal(hd_parse_uint_list("1,2,3,4,5", v, 4, 10), -EINVAL);
+    assert_int_equal(hd_parse_uint_list("11", v, 4, 10), -EINVAL);
+    assert_int_equal(hd_parse_uint_list("1,", v, 4, 10), -EINVAL);
+    assert_int_equal(hd_parse_uint_list("", v, 4, 10), -EINVAL);
+    assert_int_equal(hd_parse_uint_list("-1", v, 4, 10), -EINVAL);
+    assert_int_equal(hd_parse_uint_list("1 2", v, 4, 10), -EINVAL);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(every_key), cmocka_unit_test(defaults),     cmocka_unit_test(bad_values),
+        cmocka_unit_test(missing_file), cmocka_unit_test(uint_list), cmocka_unit_test(shipped_boards_parse),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,363 @@
+/* Integration with real ALSA: hapticd on the host-sim board (ALSA "file"
+ * plugin). Scripted triggers -> the WAV equals the expected mix sample-exactly
+ * at the documented alignment; live mode with a FIFO: SIGHUP with a corrupt
+ * table is refused and the old table keeps playing, a good table is taken. */
+#define _GNU_SOURCE
+#include "fw_fixture.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <signal.h>
+#include <sndfile.h>
+#include <spawn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <cmocka.h>
+
+extern char **environ;
+
+#define C 8u
+#define N 1000u
+#define PERIOD 64u
+#define PREFILL 128u /* host-sim: 64 frames x 2 periods */
+
+static char dir[256];
+
+static void path(char *out, size_t cap, const char *name)
+{
+    snprintf(out, cap, "%s/%s", dir, name);
+}
+
+static pid_t spawn(char *const argv[], const char *stderr_path)
+{
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 2, stderr_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    pid_t pid;
+    assert_int_equal(posix_spawn(&pid, HAPTICD_EXE, &fa, NULL, argv, environ), 0);
+    posix_spawn_file_actions_destroy(&fa);
+    return pid;
+}
+
+static int wait_exit(pid_t pid)
+{
+    int st;
+    assert_int_equal(waitpid(pid, &st, 0), pid);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+static void write_board(const char *file, const char *format, const char *map)
+{
+    FILE *f = fopen(file, "w");
+    assert_non_null(f);
+    /* The shipped asoundrc, the documented host-sim parameters, a test format/map. */
+    fprintf(f, "[alsa]\ndevice = hostsim\nconfig = %.*s/asoundrc\nchannels = 8\nformat = %s\nrate_hz = 48000\n"
+               "period_frames = 64\nperiods = 2\nchannel_map = %s\npacing = clock\n"
+               "[realtime]\npriority = 0\nmlock = false\n",
+            (int)(strrchr(HOSTSIM_BOARD, '/') - HOSTSIM_BOARD), HOSTSIM_BOARD, format, map);
+    fclose(f);
+}
+
+static int32_t *read_wav(const char *file, sf_count_t *frames, int want_format)
+{
+    SF_INFO info = {0};
+    SNDFILE *sf = sf_open(file, SFM_READ, &info);
+    if (!sf)
+        fail_msg("%s: %s", file, sf_strerror(NULL));
+    assert_int_equal(info.channels, C);
+    assert_int_equal(info.samplerate, 48000);
+    assert_int_equal(info.format & SF_FORMAT_SUBMASK, want_format);
+    int32_t *buf = calloc((size_t)info.frames * C, sizeof *buf);
+    assert_int_equal(sf_readf_int(sf, buf, info.frames), info.frames);
+    sf_close(sf);
+    *frames = info.frames;
+    return buf;
+}
+
+/* Independent energy-normalized gain for a voice (the peak limit does not
+ * bind at these amplitudes: asserted). */
+static double ref_gain(const struct fw_table *t, const uint32_t *idx, uint32_t K)
+{
+    double e_ref = 0, e_sum = 0, peak = 0;
+    for (uint32_t n = 0; n < t->samples; n++)
+        for (uint32_t c = 0; c < t->channels; c++) {
+            double s = 0;
+            for (uint32_t k = 0; k < K; k++) {
+                e_ref += (double)fw_sample(t, idx[k], n, c) * fw_sample(t, idx[k], n, c) / K;
+                s += fw_sample(t, idx[k], n, c);
+            }
+            e_sum += s * s;
+            peak = fmax(peak, fabs(s));
+        }
+    double g = sqrt(e_ref / e_sum);
+    assert_true(g <= 1.0 && g * peak * 1.5 < 32767.0);
+    return g;
+}
+
+static void scripted(const char *format, const char *map_text, const unsigned *map, int sf_format, double unit)
+{
+    struct fw_table t;
+    fw_table_make(&t, C, 3, N, FW_RANDOM, 6000, 77);
+    char table[300], script[300], wav[300], board[300], err[300], device[400];
+    path(table, sizeof table, "plate.htab");
+    path(script, sizeof script, "script.txt");
+    path(wav, sizeof wav, "device.wav");
+    path(board, sizeof board, "board.ini");
+    path(err, sizeof err, "stderr.txt");
+    fw_table_write(&t, table);
+    write_board(board, format, map_text);
+    FILE *f = fopen(script, "w");
+    /* Frame stamps: 0 (before the pre-fill ends: starts at 128), 4800 (a
+     * boundary: starts there), 4810 (starts at the next boundary, 4864, on
+     * top of the voice still playing). */
+    fprintf(f, "# test\nat 0 focus %u\nat 4800 foci %u,%u\nat 4810 focus %u\n", t.ids[0], t.ids[1], t.ids[2],
+            t.ids[0]);
+    fclose(f);
+    snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
+    char *argv[] = {"hapticd", "--board", board, "--table", table, "--script", script, "--alsa-device", device, NULL};
+    pid_t pid = spawn(argv, err);
+    assert_int_equal(wait_exit(pid), 0);
+
+    sf_count_t frames;
+    int32_t *got = read_wav(wav, &frames, sf_format);
+    const uint32_t starts[3] = {PREFILL, 4800, 4864};
+    const uint32_t sets[3][2] = {{0, 0}, {1, 2}, {0, 0}};
+    const uint32_t counts[3] = {1, 2, 1};
+    double gains[3];
+    for (int v = 0; v < 3; v++)
+        gains[v] = ref_gain(&t, sets[v], counts[v]);
+    assert_true(gains[0] == 1.0);
+    /* The run ends at the period boundary after the last voice. */
+    assert_int_equal(frames, (4864 + N + PERIOD - 1) / PERIOD * PERIOD);
+    long off = 0;
+    for (sf_count_t n = 0; n < frames; n++)
+        for (uint32_t c = 0; c < C; c++) {
+            double y = 0;
+            for (int v = 0; v < 3; v++)
+                if (n >= starts[v] && n - starts[v] < N)
+                    for (uint32_t k = 0; k < counts[v]; k++)
+                        y += gains[v] * fw_sample(&t, sets[v][k], (uint32_t)(n - starts[v]), c);
+            double want = floor(y * unit + 0.5);
+            double have = got[n * C + map[c]];
+            if (sf_format == SF_FORMAT_PCM_16)
+                have /= 65536.0; /* libsndfile scales 16-bit into the int range */
+            if (fabs(have - want) > 1.0)
+                fail_msg("frame %ld channel %u: WAV %.0f, expected %.3f", (long)n, c, have, y * unit);
+            off += have != want;
+        }
+    /* K = 1 voices alone are bit-exact; the rest within one LSB of the reference. */
+    for (sf_count_t n = PREFILL; n < PREFILL + N; n++)
+        for (uint32_t c = 0; c < C; c++) {
+            double have = got[n * C + map[c]];
+            if (sf_format == SF_FORMAT_PCM_16)
+                have /= 65536.0;
+            assert_true(have == fw_sample(&t, 0, (uint32_t)(n - PREFILL), c) * unit);
+        }
+    for (sf_count_t n = 0; n < PREFILL; n++)
+        for (uint32_t c = 0; c < C; c++)
+            assert_int_equal(got[n * C + c], 0);
+    free(got);
+    fw_table_free(&t);
+    (void)off;
+}
+
+static void scripted_s32_identity(void **state)
+{
+    (void)state;
+    const unsigned map[C] = {0, 1, 2, 3, 4, 5, 6, 7};
+    scripted("S32_LE", "0,1,2,3,4,5,6,7", map, SF_FORMAT_PCM_32, 65536.0);
+}
+
+static void scripted_s16_channel_map(void **state)
+{
+    (void)state;
+    const unsigned map[C] = {3, 1, 7, 5, 0, 2, 4, 6};
+    scripted("S16_LE", "3,1,7,5,0,2,4,6", map, SF_FORMAT_PCM_16, 1.0);
+}
+
+static int file_contains(const char *file, const char *needle)
+{
+    char buf[8192] = "";
+    FILE *f = fopen(file, "r");
+    if (!f)
+        return 0;
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    buf[n] = '\0';
+    fclose(f);
+    return strstr(buf, needle) != NULL;
+}
+
+static void wait_for(const char *file, const char *needle)
+{
+    for (int i = 0; i < 500; i++) {
+        if (file_contains(file, needle))
+            return;
+        struct timespec ts = {0, 10000000};
+        nanosleep(&ts, NULL);
+    }
+    fail_msg("%s never said '%s'", file, needle);
+}
+
+static void sleep_ms(long ms)
+{
+    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000};
+    nanosleep(&ts, NULL);
+}
+
+/* Frames where a voice starts: the first non-zero frame after `from`. */
+static sf_count_t onset(const int32_t *w, sf_count_t frames, sf_count_t from)
+{
+    for (sf_count_t n = from; n < frames; n++)
+        for (uint32_t c = 0; c < C; c++)
+            if (w[n * C + c])
+                return n;
+    return -1;
+}
+
+static void assert_plays(const int32_t *w, sf_count_t at, const struct fw_table *t, uint32_t f)
+{
+    for (uint32_t n = 0; n < N; n++)
+        for (uint32_t c = 0; c < C; c++)
+            if (w[(at + n) * C + c] != fw_sample(t, f, n, c) * 65536)
+                fail_msg("frame %ld+%u channel %u: %d, table says %d", (long)at, n, c, w[(at + n) * C + c] / 65536,
+                         fw_sample(t, f, n, c));
+}
+
+static void sighup_keeps_old_table_on_corruption(void **state)
+{
+    (void)state;
+    struct fw_table old_t, new_t;
+    fw_table_make(&old_t, C, 2, N, FW_RANDOM, 5000, 1);
+    fw_table_make(&new_t, C, 2, N, FW_RANDOM, 5000, 2); /* same ids, other signals */
+    char table[300], fifo[300], wav[300], board[300], err[300], device[400];
+    path(table, sizeof table, "live.htab");
+    path(fifo, sizeof fifo, "triggers");
+    path(wav, sizeof wav, "live.wav");
+    path(board, sizeof board, "live.ini");
+    path(err, sizeof err, "live-stderr.txt");
+    fw_table_write(&old_t, table);
+    write_board(board, "S32_LE", "0,1,2,3,4,5,6,7");
+    unlink(fifo);
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
+    char *argv[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device, NULL};
+    pid_t pid = spawn(argv, err);
+    int fd = open(fifo, O_WRONLY); /* blocks until hapticd has it open */
+    assert_true(fd >= 0);
+    wait_for(err, "running");
+    char line[64];
+    int n = snprintf(line, sizeof line, "focus %u\n", old_t.ids[0]);
+    assert_int_equal(write(fd, line, (size_t)n), n);
+    sleep_ms(100);
+    /* A corrupt table (one payload byte flipped, CRC now wrong) on disk + SIGHUP. */
+    old_t.buf[old_t.size - 100] ^= 0x5a;
+    fw_table_write(&old_t, table);
+    old_t.buf[old_t.size - 100] ^= 0x5a;
+    kill(pid, SIGHUP);
+    wait_for(err, "reload refused");
+    n = snprintf(line, sizeof line, "focus %u\n", old_t.ids[1]);
+    assert_int_equal(write(fd, line, (size_t)n), n);
+    sleep_ms(100);
+    /* A good new table is taken. */
+    fw_table_write(&new_t, table);
+    kill(pid, SIGHUP);
+    wait_for(err, "reloaded");
+    n = snprintf(line, sizeof line, "focus %u\n", new_t.ids[0]);
+    assert_int_equal(write(fd, line, (size_t)n), n);
+    sleep_ms(100);
+    kill(pid, SIGTERM);
+    assert_int_equal(wait_exit(pid), 0);
+    close(fd);
+    assert_true(file_contains(err, "stopping (drain)"));
+
+    sf_count_t frames;
+    int32_t *w = read_wav(wav, &frames, SF_FORMAT_PCM_32);
+    sf_count_t a = onset(w, frames, 0);
+    assert_true(a >= (sf_count_t)PREFILL && a % PERIOD == 0); /* voices start on period boundaries */
+    assert_plays(w, a, &old_t, 0);
+    sf_count_t b = onset(w, frames, a + N);
+    assert_true(b > a && b % PERIOD == 0);
+    assert_plays(w, b, &old_t, 1);  /* the refused reload changed nothing */
+    sf_count_t c = onset(w, frames, b + N);
+    assert_true(c > b && c % PERIOD == 0);
+    assert_plays(w, c, &new_t, 0);  /* the good reload took effect */
+    assert_int_equal(onset(w, frames, c + N), -1);
+    /* Clock pacing: the WAV length follows wall time (>= the 300 ms slept). */
+    assert_true(frames >= 48000 * 3 / 10);
+    free(w);
+    fw_table_free(&old_t);
+    fw_table_free(&new_t);
+}
+
+static void bad_inputs_fail_cleanly(void **state)
+{
+    (void)state;
+    char err[300], script[300], table[300];
+    path(err, sizeof err, "bad-stderr.txt");
+    path(script, sizeof script, "bad-script.txt");
+    path(table, sizeof table, "bad.htab");
+    /* Bad script line: one-line error naming the file and the line. */
+    FILE *f = fopen(script, "w");
+    fprintf(f, "at 0 focus 1\nat 10 wiggle 3\n");
+    fclose(f);
+    struct fw_table t;
+    fw_table_make(&t, C, 1, 64, FW_RANDOM, 100, 3);
+    fw_table_write(&t, table);
+    char *argv1[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", table, "--script", script,
+                     "--alsa-device", "null", NULL};
+    assert_int_equal(wait_exit(spawn(argv1, err)), 1);
+    char want[400];
+    snprintf(want, sizeof want, "%s:2: unknown command 'wiggle'", script);
+    assert_true(file_contains(err, want));
+    /* A corrupt table at start: refused, named. */
+    t.buf[t.size - 10] ^= 1;
+    fw_table_write(&t, table);
+    char *argv2[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", table, "--script", script, NULL};
+    assert_int_equal(wait_exit(spawn(argv2, err)), 1);
+    assert_true(file_contains(err, "crc32"));
+    assert_true(file_contains(err, table));
+    char *argv3[] = {"hapticd", "--check", table, NULL};
+    assert_int_equal(wait_exit(spawn(argv3, err)), 1);
+    t.buf[t.size - 10] ^= 1;
+    fw_table_write(&t, table);
+    assert_int_equal(wait_exit(spawn(argv3, err)), 0);
+    fw_table_free(&t);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    const char *tmp = getenv("TMPDIR");
+    snprintf(dir, sizeof dir, "%s/hapticd-test-XXXXXX", tmp && *tmp ? tmp : "/tmp");
+    assert_non_null(mkdtemp(dir));
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[400];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(scripted_s32_identity),
+        cmocka_unit_test(scripted_s16_channel_map),
+        cmocka_unit_test(sighup_keeps_old_table_on_corruption),
+        cmocka_unit_test(bad_inputs_fail_cleanly),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}

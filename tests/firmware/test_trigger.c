@@ -1,0 +1,154 @@
+/* Trigger state machine (lockout on event timestamps, bouncing edges,
+ * simultaneous lines, unknown lines) and the host trigger parser. */
+#include "trigger.h"
+
+#include <errno.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <string.h>
+#include <cmocka.h>
+
+#define MS 1000000ull
+
+static void two_line_board(struct hd_trigger *t, unsigned lockout_ms)
+{
+    struct hd_board b;
+    hd_board_defaults(&b);
+    b.lockout_ms = lockout_ms;
+    b.line_count = 2;
+    b.lines[0] = (struct hd_line){.offset = 17, .active_low = true, .focus_count = 1, .focus_ids = {3}};
+    b.lines[1] = (struct hd_line){.offset = 27, .active_low = false, .focus_count = 2, .focus_ids = {1, 4}};
+    hd_trigger_init(t, &b);
+}
+
+static void lockout_and_bounce(void **state)
+{
+    (void)state;
+    struct hd_trigger t;
+    struct hd_event ev;
+    two_line_board(&t, 50);
+    const uint64_t t0 = 1000 * MS;
+    /* Press (falling on an active-low line) fires at once. */
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, t0, &ev), 1);
+    assert_int_equal(ev.focus_count, 1);
+    assert_int_equal(ev.focus_ids[0], 3);
+    assert_true(ev.t_ns == t0);
+    assert_true(ev.frame == -1);
+    /* Contact bounce inside the 50 ms window: ignored. */
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_RISING, t0 + 1 * MS, &ev), 0);
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, t0 + 2 * MS, &ev), 0);
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, t0 + 50 * MS - 1, &ev), 0);
+    assert_int_equal(t.bounces, 3);
+    /* Release after the window: no fire, but it opens a window... */
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_RISING, t0 + 60 * MS, &ev), 0);
+    assert_int_equal(t.releases, 1);
+    /* ...so the bounce of the release cannot fire. */
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, t0 + 70 * MS, &ev), 0);
+    /* The window lasts exactly lockout from the edge that opened it (not extended by bounces). */
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, t0 + 110 * MS, &ev), 1);
+    assert_int_equal(t.fired, 2);
+}
+
+static void active_high_and_edges(void **state)
+{
+    (void)state;
+    struct hd_trigger t;
+    struct hd_event ev;
+    two_line_board(&t, 50);
+    /* Line 27 is active-high: falling is a release, rising a press. */
+    assert_int_equal(hd_trigger_edge(&t, 27, HD_EDGE_FALLING, 0, &ev), 0);
+    assert_int_equal(hd_trigger_edge(&t, 27, HD_EDGE_RISING, 100 * MS, &ev), 1);
+    assert_int_equal(ev.focus_count, 2);
+    assert_int_equal(ev.focus_ids[0], 1);
+    assert_int_equal(ev.focus_ids[1], 4);
+}
+
+static void simultaneous_lines(void **state)
+{
+    (void)state;
+    struct hd_trigger t;
+    struct hd_event a, b;
+    two_line_board(&t, 50);
+    /* Two fingers at the same instant: each line has its own lockout. */
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, 5 * MS, &a), 1);
+    assert_int_equal(hd_trigger_edge(&t, 27, HD_EDGE_RISING, 5 * MS, &b), 1);
+    assert_int_equal(a.focus_ids[0], 3);
+    assert_int_equal(b.focus_ids[1], 4);
+    /* One line locked does not lock the other. */
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, 6 * MS, &a), 0);
+    assert_int_equal(hd_trigger_edge(&t, 27, HD_EDGE_FALLING, 56 * MS, &b), 0); /* release after window */
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, 56 * MS, &a), 1);
+}
+
+static void unknown_line(void **state)
+{
+    (void)state;
+    struct hd_trigger t;
+    struct hd_event ev;
+    two_line_board(&t, 50);
+    assert_int_equal(hd_trigger_edge(&t, 5, HD_EDGE_FALLING, 0, &ev), -ENOENT);
+    assert_int_equal(t.unknown_lines, 1);
+    assert_int_equal(t.fired, 0);
+    assert_int_equal(hd_trigger_line_index(&t, 27), 1);
+    assert_int_equal(hd_trigger_line_index(&t, 28), -1);
+}
+
+static void no_lockout_and_clock_step(void **state)
+{
+    (void)state;
+    struct hd_trigger t;
+    struct hd_event ev;
+    two_line_board(&t, 0);
+    for (int i = 0; i < 5; i++)
+        assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, 10 * MS, &ev), 1);
+    two_line_board(&t, 50);
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, 1000 * MS, &ev), 1);
+    /* The clock stepped back by a second: a new window, not a lock until it catches up. */
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, 0, &ev), 1);
+    assert_int_equal(hd_trigger_edge(&t, 17, HD_EDGE_FALLING, 10 * MS, &ev), 0);
+}
+
+static void host_commands(void **state)
+{
+    (void)state;
+    struct hd_event ev;
+    char err[200];
+    assert_int_equal(hd_host_parse("focus 3", &ev, err, sizeof err), 1);
+    assert_int_equal(ev.focus_count, 1);
+    assert_int_equal(ev.focus_ids[0], 3);
+    assert_true(ev.frame == -1);
+    assert_int_equal(hd_host_parse("  foci 1,4\r\n", &ev, err, sizeof err), 1);
+    assert_int_equal(ev.focus_count, 2);
+    assert_int_equal(ev.focus_ids[1], 4);
+    assert_int_equal(hd_host_parse("at 4800 focus 3", &ev, err, sizeof err), 1);
+    assert_true(ev.frame == 4800);
+    assert_int_equal(ev.focus_ids[0], 3);
+    assert_int_equal(hd_host_parse("at 0 foci 7, 8 # two", &ev, err, sizeof err), -EINVAL); /* no spaces in list */
+    assert_int_equal(hd_host_parse("at 0 foci 7,8 # two", &ev, err, sizeof err), 1);
+    assert_int_equal(ev.focus_count, 2);
+    assert_int_equal(hd_host_parse("foci 4294967295", &ev, err, sizeof err), 1);
+    assert_int_equal(ev.focus_ids[0], 4294967295u);
+    assert_int_equal(hd_host_parse("", &ev, err, sizeof err), 0);
+    assert_int_equal(hd_host_parse("   # comment", &ev, err, sizeof err), 0);
+    static const char *const bad[] = {
+        "focus", "focus 1,2", "focus x", "focus -1", "foci 4294967296", "play 3", "at focus 3", "at -5 focus 3",
+        "at 12x focus 3", "at 5", "focus 3 4", "foci 1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17", "foci ,1",
+        "focus 99999999999999999999999999999999999999999999999999999999999999999999999999999"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        err[0] = '\0';
+        if (hd_host_parse(bad[i], &ev, err, sizeof err) != -EINVAL || !err[0] || strchr(err, '\n'))
+            fail_msg("'%s' accepted or no message ('%s')", bad[i], err);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(lockout_and_bounce), cmocka_unit_test(active_high_and_edges),
+        cmocka_unit_test(simultaneous_lines), cmocka_unit_test(unknown_line),
+        cmocka_unit_test(no_lockout_and_clock_step), cmocka_unit_test(host_commands),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
