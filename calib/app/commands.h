@@ -7,5 +7,7 @@ namespace calib::app {
 
 // Every register_* adds one subcommand whose callback sets `exit_code`.
 void register_inspect(CLI::App &app, int &exit_code);
+void register_dispersion(CLI::App &app, int &exit_code);
+void register_simulate(CLI::App &app, int &exit_code);
 
 }  // namespace calib::app

@@ -10,6 +10,8 @@ int main(int argc, char **argv)
     app.require_subcommand(1);
     int exit_code = 0;
     calib::app::register_inspect(app, exit_code);
+    calib::app::register_dispersion(app, exit_code);
+    calib::app::register_simulate(app, exit_code);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError &e) {

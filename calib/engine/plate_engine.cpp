@@ -1,0 +1,291 @@
+#include "engine/plate_engine.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <new>
+#include <stdexcept>
+
+#if defined(__SSE__) || defined(__x86_64__)
+#include <xmmintrin.h>
+#define HAPTIC_HAVE_MXCSR 1
+#endif
+
+namespace calib::engine {
+
+ScopedFlushDenormals::ScopedFlushDenormals()
+{
+#ifdef HAPTIC_HAVE_MXCSR
+    saved_ = _mm_getcsr();
+    const unsigned ftz_daz = saved_ | 0x8040u;
+    _mm_setcsr(ftz_daz);
+#pragma omp parallel
+    _mm_setcsr(ftz_daz);
+#endif
+}
+
+ScopedFlushDenormals::~ScopedFlushDenormals()
+{
+#ifdef HAPTIC_HAVE_MXCSR
+    const unsigned saved = saved_;
+#pragma omp parallel
+    _mm_setcsr(saved);
+    _mm_setcsr(saved);
+#endif
+}
+
+template <typename T>
+PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time_step_s, const EngineOptions &options)
+    : op_(std::move(op)), options_(options), k_(time_step_s)
+{
+    if (!op_)
+        throw std::invalid_argument("PlateEngine: no operator");
+    if (!options_.skip_stability_check)
+        op_->check_time_step(k_);
+    const Grid &g = op_->grid();
+    nx_ = g.nx;
+    ny_ = g.ny;
+    // Rows padded to whole 64-byte lines so every row starts aligned.
+    const std::ptrdiff_t per_line = std::ptrdiff_t(64 / sizeof(T));
+    stride_ = (std::ptrdiff_t(nx_ + 1) + per_line - 1) / per_line * per_line;
+    const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 1);
+    storage_ = static_cast<T *>(std::aligned_alloc(64, 3 * level * sizeof(T)));
+    if (!storage_)
+        throw std::bad_alloc();
+    std::memset(static_cast<void *>(storage_), 0, 3 * level * sizeof(T));
+    prev_ = storage_;
+    cur_ = storage_ + level;
+    next_ = storage_ + 2 * level;
+
+    const Loss &loss = op_->params().loss;
+    lossy_ = loss.active();
+    const double h = g.h;
+    const double mu2 = op_->kappa() * op_->kappa() * k_ * k_ / (h * h * h * h);
+    const double nu1 = 2 * loss.sigma1 * k_ / (h * h);
+    const double d = 1.0 / (1.0 + loss.sigma0 * k_);
+    bulk_.g = T(d * (1 - loss.sigma0 * k_));
+    bulk_.mu2 = T(d * mu2);
+    bulk_.nu1 = T(d * nu1);
+    build_edge_rows();
+}
+
+template <typename T>
+PlateEngine<T>::~PlateEngine()
+{
+    std::free(storage_);
+}
+
+template <typename T>
+std::ptrdiff_t PlateEngine<T>::offset_of(std::size_t node) const
+{
+    const std::size_t i = node % std::size_t(nx_ + 1), j = node / std::size_t(nx_ + 1);
+    return std::ptrdiff_t(j) * stride_ + std::ptrdiff_t(i);
+}
+
+template <typename T>
+double PlateEngine<T>::force_gain(std::size_t node) const
+{
+    const std::ptrdiff_t u = op_->unknown_of()[node];
+    if (u < 0)
+        return 0.0;
+    const double d = 1.0 / (1.0 + op_->params().loss.sigma0 * k_);
+    return d * k_ * k_ / op_->mass()[u];
+}
+
+// Rows for the unknowns within two cells of an edge, from the assembled
+// matrices, in the same form as the bulk kernel:
+//   u+ = c + g (c - p) - R u + S u-,
+//   R = d (k^2 M^-1 K + 2 sigma1 k M^-1 Gm),  S = d 2 sigma1 k M^-1 Gm,
+// with R u stored as sum_m R_nm (u_m - u_n) + (row sum) u_n so that rounded
+// coefficients cannot make a rigid motion of a free plate feel a force.
+template <typename T>
+void PlateEngine<T>::build_edge_rows()
+{
+    const PlateOperator &op = *op_;
+    const Loss &loss = op.params().loss;
+    const double d = 1.0 / (1.0 + loss.sigma0 * k_);
+    const auto &K = op.stiffness();
+    const auto &G = op.dirichlet();
+    edge_r_ = {};
+    edge_s_ = {};
+    edge_r_.start.assign(1, 0);
+    edge_s_.start.assign(1, 0);
+    for (std::size_t u = 0; u < op.unknown_count(); ++u) {
+        const std::size_t node = op.node_of()[u];
+        const int i = int(node % std::size_t(nx_ + 1)), j = int(node / std::size_t(nx_ + 1));
+        if (i >= 2 && i <= nx_ - 2 && j >= 2 && j <= ny_ - 2)
+            continue;  // bulk
+        const double minv = 1.0 / op.mass()[Eigen::Index(u)];
+        std::map<std::ptrdiff_t, double> r, s;
+        for (PlateOperator::SparseMatrix::InnerIterator it(K, Eigen::Index(u)); it; ++it)
+            r[offset_of(op.node_of()[std::size_t(it.col())])] += d * k_ * k_ * minv * it.value();
+        if (loss.sigma1 > 0)
+            for (PlateOperator::SparseMatrix::InnerIterator it(G, Eigen::Index(u)); it; ++it) {
+                const double v = d * 2 * loss.sigma1 * k_ * minv * it.value();
+                r[offset_of(op.node_of()[std::size_t(it.col())])] += v;
+                s[offset_of(op.node_of()[std::size_t(it.col())])] += v;
+            }
+        const std::ptrdiff_t self = offset_of(node);
+        for (auto [rows, src] : {std::pair{&edge_r_, &r}, std::pair{&edge_s_, &s}}) {
+            double sum = 0;
+            rows->target.push_back(self);
+            for (auto [col, v] : *src) {
+                sum += v;
+                if (col != self && v != 0.0) {
+                    rows->column.push_back(col);
+                    rows->value.push_back(T(v));
+                }
+            }
+            rows->row_sum.push_back(T(sum));
+            rows->start.push_back(std::uint32_t(rows->column.size()));
+        }
+    }
+}
+
+template <typename T>
+std::size_t PlateEngine<T>::add_source(double x_m, double y_m)
+{
+    PointTap tap;
+    for (const auto &nw : op_->point_weights(x_m, y_m)) {
+        tap.offset.push_back(offset_of(nw.node));
+        tap.weight.push_back(T(nw.weight * force_gain(nw.node)));
+    }
+    sources_.push_back(std::move(tap));
+    return sources_.size() - 1;
+}
+
+template <typename T>
+std::size_t PlateEngine<T>::add_receiver(double x_m, double y_m)
+{
+    PointTap tap;
+    for (const auto &nw : op_->point_weights(x_m, y_m)) {
+        tap.offset.push_back(offset_of(nw.node));
+        tap.weight.push_back(T(nw.weight));
+    }
+    receivers_.push_back(std::move(tap));
+    return receivers_.size() - 1;
+}
+
+template <typename T>
+double PlateEngine<T>::receiver_value(std::size_t r) const
+{
+    const PointTap &tap = receivers_[r];
+    double v = 0;
+    for (std::size_t n = 0; n < tap.offset.size(); ++n)
+        v += double(tap.weight[n]) * double(cur_[tap.offset[n]]);
+    return v;
+}
+
+template <typename T>
+void PlateEngine<T>::step()
+{
+    if (lossy_)
+        step_impl<true>();
+    else
+        step_impl<false>();
+}
+
+template <typename T>
+template <bool Lossy>
+void PlateEngine<T>::step_impl()
+{
+    const int i0 = 2, i1 = nx_ - 1, j0 = 2, j1 = ny_ - 1;
+    if (i1 > i0 && j1 > j0) {
+        const std::size_t cells = std::size_t(i1 - i0) * std::size_t(j1 - j0);
+        const int threads = options_.threads > 0 ? options_.threads : omp_get_max_threads();
+        const int used = cells >= options_.parallel_min_cells ? threads : 1;
+        bulk_update_threads<T, Lossy>(cur_, prev_, next_, stride_, i0, i1, j0, j1, bulk_, used);
+    }
+    // The edge band: sparse rows of the assembled operator.
+    const std::size_t rows = edge_r_.target.size();
+    const T g = bulk_.g;
+    for (std::size_t r = 0; r < rows; ++r) {
+        const std::ptrdiff_t self = edge_r_.target[r];
+        const T c = cur_[self], p = prev_[self];
+        T ru = edge_r_.row_sum[r] * c;
+        for (std::uint32_t e = edge_r_.start[r]; e < edge_r_.start[r + 1]; ++e)
+            ru += edge_r_.value[e] * (cur_[edge_r_.column[e]] - c);
+        T v = c + g * (c - p) - ru;
+        if constexpr (Lossy) {
+            T sp = edge_s_.row_sum[r] * p;
+            for (std::uint32_t e = edge_s_.start[r]; e < edge_s_.start[r + 1]; ++e)
+                sp += edge_s_.value[e] * (prev_[edge_s_.column[e]] - p);
+            v += sp;
+        }
+        next_[self] = v;
+    }
+    for (PointTap &src : sources_) {
+        if (src.force == T(0))
+            continue;
+        for (std::size_t n = 0; n < src.offset.size(); ++n)
+            next_[src.offset[n]] += src.weight[n] * src.force;
+    }
+    T *old_prev = prev_;
+    prev_ = cur_;
+    cur_ = next_;
+    next_ = old_prev;
+    ++steps_;
+    for (auto &ext : extensions_)
+        ext->after_update(*this);
+}
+
+template <typename T>
+double PlateEngine<T>::energy() const
+{
+    const PlateOperator &op = *op_;
+    const Eigen::Index n = Eigen::Index(op.unknown_count());
+    Eigen::VectorXd a(n), b(n);
+    for (Eigen::Index u = 0; u < n; ++u) {
+        const std::ptrdiff_t off = offset_of(op.node_of()[std::size_t(u)]);
+        a[u] = double(cur_[off]);
+        b[u] = double(prev_[off]);
+    }
+    const Eigen::VectorXd v = (a - b) / k_;
+    double kinetic = v.dot(op.mass().cwiseProduct(v));
+    const double sigma1 = op.params().loss.sigma1;
+    if (sigma1 > 0)
+        kinetic -= sigma1 * k_ * v.dot(op.dirichlet() * v);
+    const double potential = a.dot(op.stiffness() * b);
+    return 0.5 * kinetic + 0.5 * potential;
+}
+
+template <typename T>
+std::vector<double> PlateEngine<T>::displacement() const
+{
+    std::vector<double> out(std::size_t(nx_ + 1) * std::size_t(ny_ + 1));
+    for (int j = 0; j <= ny_; ++j)
+        for (int i = 0; i <= nx_; ++i)
+            out[std::size_t(j) * std::size_t(nx_ + 1) + std::size_t(i)] = double(cur_[j * stride_ + i]);
+    return out;
+}
+
+template <typename T>
+std::vector<double> PlateEngine<T>::previous_displacement() const
+{
+    std::vector<double> out(std::size_t(nx_ + 1) * std::size_t(ny_ + 1));
+    for (int j = 0; j <= ny_; ++j)
+        for (int i = 0; i <= nx_; ++i)
+            out[std::size_t(j) * std::size_t(nx_ + 1) + std::size_t(i)] = double(prev_[j * stride_ + i]);
+    return out;
+}
+
+template <typename T>
+void PlateEngine<T>::set_state(const std::vector<double> &current, const std::vector<double> &previous)
+{
+    const std::size_t nodes = op_->grid().node_count();
+    if (current.size() != nodes || previous.size() != nodes)
+        throw std::invalid_argument("PlateEngine::set_state: field size does not match the grid");
+    for (std::size_t node = 0; node < nodes; ++node) {
+        const bool fixed = op_->unknown_of()[node] < 0;
+        cur_[offset_of(node)] = fixed ? T(0) : T(current[node]);
+        prev_[offset_of(node)] = fixed ? T(0) : T(previous[node]);
+    }
+}
+
+template class PlateEngine<float>;
+template class PlateEngine<double>;
+
+}  // namespace calib::engine

@@ -1,0 +1,134 @@
+// The plate *engine*: state and time stepping for one PlateOperator. The
+// bulk update is a compiled kernel (plate_kernels.h), chosen per step between
+// the lossless and the lossy variant; the rows near the edges are sparse rows
+// of the assembled operator; sources, receivers and effect extensions act on a
+// few nodes after that.
+#pragma once
+
+#include "engine/plate_kernels.h"
+#include "engine/plate_operator.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace calib::engine {
+
+struct EngineOptions {
+    int threads = 0;                        // 0: OpenMP's default
+    std::size_t parallel_min_cells = 1u << 16;  // smaller interiors run on one thread (fork/join costs more)
+    bool skip_stability_check = false;      // tests only: lets a test show the bound is real
+};
+
+// Sets flush-to-zero and denormals-are-zero on this thread and on OpenMP's
+// worker threads for its lifetime (float runs: decaying fields would
+// otherwise reach denormals and slow down 10-100x).
+class ScopedFlushDenormals {
+public:
+    ScopedFlushDenormals();
+    ~ScopedFlushDenormals();
+    ScopedFlushDenormals(const ScopedFlushDenormals &) = delete;
+    ScopedFlushDenormals &operator=(const ScopedFlushDenormals &) = delete;
+
+private:
+    unsigned saved_ = 0;
+};
+
+template <typename T>
+class PlateEngine;
+
+// An effect with a state of its own (issue #6: finger, exciter model) acts
+// after the bulk and edge update on a few nodes. It sees the new field and
+// may add to it, scaled like a force (see PlateEngine::force_gain()).
+template <typename T>
+class EngineExtension {
+public:
+    virtual ~EngineExtension() = default;
+    virtual void after_update(PlateEngine<T> &engine) = 0;
+};
+
+template <typename T>
+class PlateEngine {
+public:
+    // Throws std::invalid_argument if the time step is not below the operator's
+    // stability bound (unless options.skip_stability_check).
+    PlateEngine(std::shared_ptr<const PlateOperator> op, double time_step_s, const EngineOptions &options = {});
+    ~PlateEngine();
+    PlateEngine(const PlateEngine &) = delete;
+    PlateEngine &operator=(const PlateEngine &) = delete;
+
+    const PlateOperator &plate() const { return *op_; }
+    double time_step() const { return k_; }
+    std::size_t steps_done() const { return steps_; }
+
+    // Point force (N) with bilinear spreading; the receiver reads the
+    // displacement with the same weights, which makes A->B equal B->A.
+    std::size_t add_source(double x_m, double y_m);
+    std::size_t add_receiver(double x_m, double y_m);
+    std::size_t source_count() const { return sources_.size(); }
+    std::size_t receiver_count() const { return receivers_.size(); }
+    // Force applied during the next step (held constant over that step).
+    void set_source_force(std::size_t source, double force_n) { sources_[source].force = T(force_n); }
+    // Displacement (m) at a receiver for the current time level.
+    double receiver_value(std::size_t receiver) const;
+
+    void add_extension(std::unique_ptr<EngineExtension<T>> ext) { extensions_.push_back(std::move(ext)); }
+
+    // One step: u^{n+1} from u^n, u^{n-1}.
+    void step();
+
+    // Discrete energy (J) at time n+1/2 from the two newest levels; exactly
+    // conserved without loss and sources, non-increasing with loss.
+    double energy() const;
+
+    // Fields on the node grid, row-major (j, i), (ny+1) x (nx+1), metres.
+    std::vector<double> displacement() const;
+    std::vector<double> previous_displacement() const;
+    // Sets u^n and u^{n-1} (values at fixed nodes are ignored).
+    void set_state(const std::vector<double> &current, const std::vector<double> &previous);
+
+    // For extensions: the newest level (writable), node (i, j) is at
+    // field[j * stride() + i]; force_gain(node) turns a force (N) at a node
+    // into its displacement increment this step.
+    T *newest_field() { return cur_; }
+    std::ptrdiff_t stride() const { return stride_; }
+    double force_gain(std::size_t node) const;
+
+private:
+    struct SparseRows {  // CSR over the field layout, diagonal kept as a row sum
+        std::vector<std::ptrdiff_t> target;
+        std::vector<T> row_sum;
+        std::vector<std::uint32_t> start;  // size target.size() + 1
+        std::vector<std::ptrdiff_t> column;
+        std::vector<T> value;
+    };
+    struct PointTap {
+        std::vector<std::ptrdiff_t> offset;
+        std::vector<T> weight;  // sources: displacement per newton; receivers: interpolation weight
+        T force = 0;
+    };
+    template <bool Lossy>
+    void step_impl();
+    std::ptrdiff_t offset_of(std::size_t node) const;
+    void build_edge_rows();
+
+    std::shared_ptr<const PlateOperator> op_;
+    EngineOptions options_;
+    double k_ = 0;
+    bool lossy_ = false;
+    int nx_ = 0, ny_ = 0;
+    std::ptrdiff_t stride_ = 0;
+    std::size_t steps_ = 0;
+    T *storage_ = nullptr;
+    T *prev_ = nullptr, *cur_ = nullptr, *next_ = nullptr;
+    BulkCoefficients<T> bulk_{};
+    SparseRows edge_r_, edge_s_;  // u+ = c + g (c - p) - R u + S u- on the edge band
+    std::vector<PointTap> sources_, receivers_;
+    std::vector<std::unique_ptr<EngineExtension<T>>> extensions_;
+};
+
+extern template class PlateEngine<float>;
+extern template class PlateEngine<double>;
+
+}  // namespace calib::engine

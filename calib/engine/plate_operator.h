@@ -1,0 +1,159 @@
+// The plate *operator*: everything precomputed from material, geometry, edges
+// and grid before time stepping starts (openEMS's operator/engine split).
+//
+// The scheme is built from its discrete energy (Bilbao, Numerical Sound
+// Synthesis, ch. 12), so every edge combination has a conserved energy by
+// construction:
+//
+//   kinetic   T = 1/2 (du/dt)^T M (du/dt),    M = rho d h^2 diag(w)
+//   potential V = 1/2 u^T K u,
+//   K = D h^2 [ sum_nodes  w_n q_n(dxx u, dyy u) + sum_cells 2 (1 - nu) (dxy u)^2 ]
+//
+// with trapezoid weights w (1/2 on a free edge, 1/4 on a free corner), the
+// node form q = a^2 + b^2 + 2 nu a b, and the cell twist dxy = d_x+ d_y+ u at
+// cell centres. On a supported edge u = 0 and the ghost node is u_-1 = -u_1
+// (simply supported) or +u_1 (clamped); on a free edge the normal second
+// difference is eliminated by the zero-moment condition a = -nu b, which
+// leaves q = (1 - nu^2) b^2; the zero-shear and corner conditions then follow
+// from the variation of V. Inside (two nodes away from every edge) the rows
+// of M^-1 K are exactly kappa^2 times Bilbao's 13-point biharmonic, whatever
+// nu is; only the rows near the edges differ, and the engine applies those as
+// sparse rows.
+//
+// Loss (optional): rho d u_tt = -D (lap^2) u - 2 sigma0 rho d u_t + 2 sigma1 rho d lap u_t,
+// with the sigma1 term as a backward difference in time so the update stays
+// explicit; Gm is the matching energy-consistent (Neumann on free edges)
+// Dirichlet form so that M^-1 Gm = -laplacian in the interior.
+#pragma once
+
+#include "physics/material.h"
+
+#include <Eigen/SparseCore>
+
+#include <array>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace calib::engine {
+
+enum class EdgeKind { clamped, simply_supported, free };
+const char *edge_kind_name(EdgeKind kind);
+
+// Edges of the rectangle [0, Lx] x [0, Ly]: left x = 0, right x = Lx,
+// bottom y = 0, top y = Ly.
+struct Edges {
+    EdgeKind left = EdgeKind::clamped;
+    EdgeKind right = EdgeKind::clamped;
+    EdgeKind bottom = EdgeKind::clamped;
+    EdgeKind top = EdgeKind::clamped;
+    static Edges all(EdgeKind k) { return {k, k, k, k}; }
+};
+
+// Frequency-dependent loss of the PDE above (1/s and m^2/s).
+struct Loss {
+    double sigma0 = 0;
+    double sigma1 = 0;
+    bool active() const { return sigma0 != 0 || sigma1 != 0; }
+};
+
+// Loss from two T60 values (seconds for a 60 dB fall of the *amplitude*) at
+// two frequencies. A mode of wavenumber beta decays as exp(-(sigma0 +
+// sigma1 beta^2) t) and beta^2 = omega / kappa, so sigma(omega_i) = 3 ln(10) /
+// T60_i. (Bilbao writes 6 ln(10) with his convention; we state ours and test
+// it by measuring the decay.) Throws std::invalid_argument if the fit needs a
+// negative sigma (T60 must not grow with frequency faster than the model
+// allows) or an input is not positive.
+Loss loss_from_t60(double kappa_m2_s, double f1_hz, double t60_1_s, double f2_hz, double t60_2_s);
+
+struct PlateParams {
+    double size_x_m = 0;
+    double size_y_m = 0;
+    double thickness_m = 0;
+    physics::Material material;
+    Edges edges;
+    Loss loss;
+};
+
+// Node grid: nx x ny intervals of the same spacing h; nodes (i, j) with
+// 0 <= i <= nx, 0 <= j <= ny at x = i h, y = j h.
+struct Grid {
+    int nx = 0;
+    int ny = 0;
+    double h = 0;
+    double length_x_m() const { return nx * h; }
+    double length_y_m() const { return ny * h; }
+    std::size_t node_count() const { return std::size_t(nx + 1) * std::size_t(ny + 1); }
+    std::size_t node(int i, int j) const { return std::size_t(j) * std::size_t(nx + 1) + std::size_t(i); }
+};
+
+// The largest h <= h_max that divides size_x into whole intervals; size_y
+// gets the nearest whole number of intervals (the plate is |dy| <= h/2 off).
+Grid make_grid(double size_x_m, double size_y_m, double h_max_m);
+
+class PlateOperator {
+public:
+    using SparseMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+
+    // Throws std::invalid_argument on non-positive sizes or grids below 2x2
+    // intervals.
+    PlateOperator(const PlateParams &params, const Grid &grid);
+
+    const PlateParams &params() const { return params_; }
+    const Grid &grid() const { return grid_; }
+    double kappa() const { return kappa_; }
+    double bending_stiffness() const { return bending_stiffness_; }
+
+    // Unknowns: nodes not held at zero by a supported edge. unknown_of[node]
+    // is the unknown's index or -1; node_of[unknown] the reverse.
+    std::size_t unknown_count() const { return node_of_.size(); }
+    const std::vector<std::ptrdiff_t> &unknown_of() const { return unknown_of_; }
+    const std::vector<std::size_t> &node_of() const { return node_of_; }
+    bool is_fixed(int i, int j) const { return unknown_of_[grid_.node(i, j)] < 0; }
+
+    // Over the unknowns: M (kg, diagonal), K (N/m), Gm (kg/m^2... so that
+    // M^-1 Gm = -laplacian inside). All symmetric; K and Gm positive
+    // semi-definite.
+    const Eigen::VectorXd &mass() const { return mass_; }
+    const SparseMatrix &stiffness() const { return stiffness_; }
+    const SparseMatrix &dirichlet() const { return dirichlet_; }
+
+    // Largest eigenvalue of M^-1 K and M^-1 Gm (1/s^2 and 1/m^2-ish): exact for
+    // small grids, Lanczos otherwise. Computed once, lazily.
+    double lambda_max_stiffness() const;
+    double lambda_max_dirichlet() const;
+    // The largest stable time step: k^2/4 lambda_K + sigma1 k lambda_G <= 1
+    // (the energy stays positive definite; sufficient, and exact without
+    // loss). Strictly, the scheme is stable below this value.
+    double max_time_step() const;
+    // Throws std::invalid_argument naming the bound if k >= max_time_step().
+    void check_time_step(double k) const;
+
+    // Bilinear spreading weights of a point (metres) on the node grid: up to 4
+    // (node, weight) pairs, fixed nodes dropped. Throws if outside the plate.
+    struct NodeWeight {
+        std::size_t node;
+        double weight;
+    };
+    std::vector<NodeWeight> point_weights(double x_m, double y_m) const;
+
+    // Mass weight w of a node (1, 1/2, 1/4; 0 for a fixed node).
+    double mass_weight(int i, int j) const;
+
+private:
+    void assemble();
+
+    PlateParams params_;
+    Grid grid_;
+    double kappa_ = 0;
+    double bending_stiffness_ = 0;
+    std::vector<std::ptrdiff_t> unknown_of_;
+    std::vector<std::size_t> node_of_;
+    Eigen::VectorXd mass_;
+    SparseMatrix stiffness_;
+    SparseMatrix dirichlet_;
+    mutable double lambda_k_ = -1;
+    mutable double lambda_g_ = -1;
+};
+
+}  // namespace calib::engine

@@ -1,0 +1,27 @@
+// Eigenvalues of the assembled plate operator: the largest (stability bound)
+// and the lowest few (modal frequencies, for verification and studies).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include <vector>
+
+namespace calib::engine {
+
+using SparseRowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
+
+// Largest eigenvalue of M^-1 A (A symmetric positive semi-definite, M a
+// positive diagonal). Dense symmetric solver below `dense_limit` unknowns;
+// Lanczos (no re-orthogonalisation: the extreme Ritz value converges anyway)
+// above, until the Ritz value is stable to ~1e-12.
+double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag,
+                                      int dense_limit = 1200);
+
+// The `count` lowest eigenvalues of A v = lambda M v, by shift-invert subspace
+// iteration (sparse LDL^T of A + shift M; `shift` > 0 also handles the rigid
+// modes of a free plate). Ascending; converged to ~1e-11 relative.
+std::vector<double> lowest_generalized_eigenvalues(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag,
+                                                   int count, double shift);
+
+}  // namespace calib::engine

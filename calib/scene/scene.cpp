@@ -1,0 +1,261 @@
+#include "scene/scene.h"
+
+#include "scene/toml_fields.h"
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+namespace calib::scene {
+
+namespace {
+
+engine::EdgeKind parse_edge_kind(const Fields &f, std::string_view key, const std::string &word)
+{
+    if (word == "clamped")
+        return engine::EdgeKind::clamped;
+    if (word == "simply_supported")
+        return engine::EdgeKind::simply_supported;
+    if (word == "free")
+        return engine::EdgeKind::free;
+    f.fail(key, "unknown edge \"" + word + "\" (known: clamped, simply_supported, free)");
+}
+
+physics::Material parse_material(const Fields &plate)
+{
+    if (!plate.has("material"))
+        plate.fail("material", "missing (required): a name (" + physics::known_material_names() +
+                                   ") or a table {density_kg_m3, youngs_pa, poisson}");
+    if (plate.node("material")->is_string()) {
+        const auto name = plate.string("material");
+        if (auto m = physics::find_material(*name))
+            return *m;
+        plate.fail("material", "unknown material \"" + *name + "\" (known: " + physics::known_material_names() + ")");
+    }
+    auto t = plate.table("material", {"name", "density_kg_m3", "youngs_pa", "poisson"});
+    if (!t)
+        plate.fail("material", "must be a name or a table");
+    const double rho = t->required_positive("density_kg_m3");
+    const double e = t->required_positive("youngs_pa");
+    const double nu = t->required_number("poisson");
+    if (!(nu > -1 && nu < 0.5))
+        t->fail("poisson", "must lie in (-1, 0.5), got " + format_number(nu));
+    return physics::material_from_elastic(rho, e, nu, t->string("name").value_or("custom"));
+}
+
+engine::Edges parse_edges(const Fields &plate)
+{
+    if (!plate.has("edges"))
+        plate.fail("edges", "missing (required): one of clamped, simply_supported, free, or a table "
+                            "{left, right, bottom, top}");
+    if (plate.node("edges")->is_string())
+        return engine::Edges::all(parse_edge_kind(plate, "edges", *plate.string("edges")));
+    auto t = plate.table("edges", {"left", "right", "bottom", "top"});
+    if (!t)
+        plate.fail("edges", "must be a string or a table");
+    engine::Edges e;
+    auto one = [&](const char *key) {
+        auto w = t->string(key);
+        if (!w)
+            t->fail(key, "missing (required; edges given per edge need all four)");
+        return parse_edge_kind(*t, key, *w);
+    };
+    e.left = one("left");
+    e.right = one("right");
+    e.bottom = one("bottom");
+    e.top = one("top");
+    return e;
+}
+
+void parse_plate(const toml::table &t, Scene &scene)
+{
+    Fields f(t, scene.file, "plate", {"size_m", "thickness_m", "material", "edges", "loss"});
+    PlateSpec &p = scene.plate;
+    auto size = f.numbers("size_m", 2);
+    if (!size)
+        f.fail("size_m", "missing (required): [Lx, Ly] in metres");
+    for (double v : *size)
+        if (!(v > 0 && std::isfinite(v)))
+            f.fail("size_m", "both sizes must be > 0, got " + format_number(v));
+    p.size_x_m = (*size)[0];
+    p.size_y_m = (*size)[1];
+    p.thickness_m = f.required_positive("thickness_m");
+    p.material = parse_material(f);
+    p.edges = parse_edges(f);
+    if (auto loss = f.table("loss", {"frequencies_hz", "t60_s"})) {
+        auto fr = loss->numbers("frequencies_hz", 2);
+        auto t60 = loss->numbers("t60_s", 2);
+        if (!fr)
+            loss->fail("frequencies_hz", "missing (required): [f1, f2] in Hz");
+        if (!t60)
+            loss->fail("t60_s", "missing (required): [T60 at f1, T60 at f2] in seconds");
+        for (double v : *fr)
+            if (!(v > 0))
+                loss->fail("frequencies_hz", "must be > 0, got " + format_number(v));
+        for (double v : *t60)
+            if (!(v > 0))
+                loss->fail("t60_s", "must be > 0, got " + format_number(v));
+        if ((*fr)[0] == (*fr)[1])
+            loss->fail("frequencies_hz", "the two frequencies must differ");
+        p.loss = LossSpec{(*fr)[0], (*t60)[0], (*fr)[1], (*t60)[1]};
+    }
+}
+
+void parse_simulation(const toml::table &t, Scene &scene)
+{
+    Fields f(t, scene.file, "simulation",
+             {"f_max_hz", "points_per_wavelength", "grid_spacing_m", "courant", "time_step_s", "precision", "threads"});
+    SimulationSpec &s = scene.simulation;
+    if (auto v = f.positive("grid_spacing_m"))
+        s.grid_spacing_m = *v;
+    if (s.grid_spacing_m && f.has("points_per_wavelength"))
+        f.fail("points_per_wavelength", "give either points_per_wavelength or grid_spacing_m, not both");
+    if (auto v = f.positive("f_max_hz"))
+        s.f_max_hz = *v;
+    else if (!s.grid_spacing_m)
+        f.fail("f_max_hz", "missing (required unless grid_spacing_m is given)");
+    if (auto v = f.positive("points_per_wavelength")) {
+        if (*v < 4)
+            f.fail("points_per_wavelength", "must be >= 4, got " + format_number(*v));
+        s.points_per_wavelength = *v;
+    }
+    if (auto v = f.number("courant")) {
+        if (!(*v > 0 && *v < 1))
+            f.fail("courant", "must lie in (0, 1) (fraction of the stability bound), got " + format_number(*v));
+        s.courant = *v;
+    }
+    if (auto v = f.positive("time_step_s"))
+        s.time_step_s = *v;
+    if (auto p = f.string("precision")) {
+        if (*p == "float")
+            s.precision = engine::Precision::f32;
+        else if (*p == "double")
+            s.precision = engine::Precision::f64;
+        else
+            f.fail("precision", "must be \"float\" or \"double\", got \"" + *p + "\"");
+    }
+    if (auto n = f.integer("threads")) {
+        if (*n < 0 || *n > 1024)
+            f.fail("threads", "must lie in [0, 1024] (0: all), got " + std::to_string(*n));
+        s.threads = int(*n);
+    }
+}
+
+// The sections a scene may have, in the order they are parsed.
+struct Section {
+    const char *name;
+    bool required;
+    void (*parse)(const toml::table &, Scene &);
+};
+constexpr Section sections[] = {
+    {"plate", true, parse_plate},
+    {"simulation", true, parse_simulation},
+};
+
+}  // namespace
+
+Scene parse_scene(std::string_view text, const std::string &file_name)
+{
+    Scene scene;
+    scene.file = file_name;
+    toml::table root;
+    try {
+        root = toml::parse(text, file_name);
+    } catch (const toml::parse_error &e) {
+        std::ostringstream msg;
+        msg << file_name << ":" << e.source().begin.line << ":" << e.source().begin.column
+            << ": TOML syntax error: " << e.description();
+        throw SceneError(msg.str());
+    }
+    for (const auto &[key, node] : root) {
+        if (key.str() == "name") {
+            if (!node.is_string())
+                throw SceneError(file_name + ": name: must be a string");
+            scene.name = *node.value<std::string>();
+            continue;
+        }
+        bool known = false;
+        for (const Section &s : sections)
+            known = known || key.str() == s.name;
+        if (!known) {
+            std::string list;
+            for (const Section &s : sections)
+                list += (list.empty() ? "" : ", ") + std::string(s.name);
+            throw SceneError(file_name + ": " + std::string(key.str()) + ": unknown section (known: name, " + list +
+                             ")");
+        }
+    }
+    for (const Section &s : sections) {
+        const toml::node *n = root.get(s.name);
+        if (!n) {
+            if (s.required)
+                throw SceneError(file_name + ": " + s.name + ": missing section");
+            continue;
+        }
+        if (!n->as_table())
+            throw SceneError(file_name + ": " + s.name + ": must be a table ([" + s.name + "])");
+        s.parse(*n->as_table(), scene);
+    }
+    return scene;
+}
+
+Scene load_scene(const std::string &path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+        throw SceneError(path + ": cannot open scene file");
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return parse_scene(ss.str(), path);
+}
+
+PlateSetup build_plate(const Scene &scene)
+{
+    const PlateSpec &p = scene.plate;
+    const SimulationSpec &s = scene.simulation;
+    engine::PlateParams params;
+    params.size_x_m = p.size_x_m;
+    params.size_y_m = p.size_y_m;
+    params.thickness_m = p.thickness_m;
+    params.material = p.material;
+    params.edges = p.edges;
+    const double kappa = p.material.kappa(p.thickness_m);
+    if (p.loss) {
+        try {
+            params.loss = engine::loss_from_t60(kappa, p.loss->f1_hz, p.loss->t60_1_s, p.loss->f2_hz, p.loss->t60_2_s);
+        } catch (const std::invalid_argument &e) {
+            throw SceneError(scene.file + ": plate.loss: " + e.what());
+        }
+    }
+    double h_max;
+    if (s.grid_spacing_m) {
+        h_max = *s.grid_spacing_m;
+    } else {
+        // Kirchhoff A0 wavelength at f_max: 2 pi sqrt(kappa / omega).
+        const double wavelength = 2 * std::numbers::pi * std::sqrt(kappa / (2 * std::numbers::pi * s.f_max_hz));
+        h_max = wavelength / s.points_per_wavelength;
+    }
+    const engine::Grid grid = engine::make_grid(p.size_x_m, p.size_y_m, h_max);
+    const double nodes = double(grid.nx + 1) * double(grid.ny + 1);
+    if (nodes > 2e8)
+        throw SceneError(scene.file + ": simulation." +
+                         (s.grid_spacing_m ? "grid_spacing_m" : "points_per_wavelength") + ": grid of " +
+                         std::to_string(grid.nx + 1) + " x " + std::to_string(grid.ny + 1) + " nodes is too large");
+    PlateSetup setup;
+    setup.plate = std::make_shared<const engine::PlateOperator>(params, grid);
+    setup.options.precision = s.precision;
+    setup.options.courant = s.courant;
+    setup.options.engine.threads = s.threads;
+    if (s.time_step_s) {
+        try {
+            setup.plate->check_time_step(*s.time_step_s);
+        } catch (const std::invalid_argument &e) {
+            throw SceneError(scene.file + ": simulation.time_step_s: " + e.what());
+        }
+        setup.options.time_step_s = *s.time_step_s;
+    }
+    return setup;
+}
+
+}  // namespace calib::scene

@@ -1,0 +1,66 @@
+// A scene file (TOML, SI units) describes one plate and how to simulate it.
+// One struct per section, one parse function per section (scene.cpp); issue
+// #4 adds [active_area], [exciters], [foci], [pulse], [calibration] and
+// [effects] the same way: a sub-struct here, a parser, a line in the section
+// table. Errors are one line naming the file and the key.
+#pragma once
+
+#include "engine/plate_operator.h"
+#include "engine/simulation.h"
+#include "physics/material.h"
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace calib::scene {
+
+// [plate.loss]: T60 (s, amplitude -60 dB) at two frequencies.
+struct LossSpec {
+    double f1_hz = 0, t60_1_s = 0;
+    double f2_hz = 0, t60_2_s = 0;
+};
+
+// [plate]
+struct PlateSpec {
+    double size_x_m = 0;
+    double size_y_m = 0;
+    double thickness_m = 0;
+    physics::Material material;
+    engine::Edges edges;
+    std::optional<LossSpec> loss;
+};
+
+// [simulation]
+struct SimulationSpec {
+    double f_max_hz = 0;                         // highest frequency to resolve
+    double points_per_wavelength = 20;           // at f_max (A0, Kirchhoff)
+    std::optional<double> grid_spacing_m;        // overrides points_per_wavelength
+    double courant = 0.95;                       // fraction of the stability bound
+    std::optional<double> time_step_s;           // forced step (refused beyond the bound)
+    engine::Precision precision = engine::Precision::f32;
+    int threads = 0;                             // 0: all
+};
+
+struct Scene {
+    std::string file;  // as given, for messages
+    std::string name;  // optional top-level `name = "..."`
+    PlateSpec plate;
+    SimulationSpec simulation;
+};
+
+// Throws SceneError (one line: "file: key: problem").
+Scene load_scene(const std::string &path);
+Scene parse_scene(std::string_view toml_text, const std::string &file_name);
+
+// The operator and the simulation options a scene asks for. Throws
+// SceneError naming the key (loss that cannot be fitted, a forced time step
+// beyond the stability bound, a grid too large).
+struct PlateSetup {
+    std::shared_ptr<const engine::PlateOperator> plate;
+    engine::SimulationOptions options;
+};
+PlateSetup build_plate(const Scene &scene);
+
+}  // namespace calib::scene
