@@ -7,6 +7,8 @@ namespace calib::app {
 
 // Every register_* adds one subcommand whose callback sets `exit_code`.
 void register_inspect(CLI::App &app, int &exit_code);
+void register_calibrate(CLI::App &app, int &exit_code);
+void register_verify(CLI::App &app, int &exit_code);
 void register_dispersion(CLI::App &app, int &exit_code);
 void register_simulate(CLI::App &app, int &exit_code);
 

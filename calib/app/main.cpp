@@ -9,6 +9,8 @@ int main(int argc, char **argv)
     CLI::App app{"calibgen " HAPTIC_VERSION ": simulate a plate and write time-reversal drive tables"};
     app.require_subcommand(1);
     int exit_code = 0;
+    calib::app::register_calibrate(app, exit_code);
+    calib::app::register_verify(app, exit_code);
     calib::app::register_inspect(app, exit_code);
     calib::app::register_dispersion(app, exit_code);
     calib::app::register_simulate(app, exit_code);

@@ -1,6 +1,9 @@
 #include "scene/scene.h"
 
+#include "scene/calibration_sections.h"
 #include "scene/toml_fields.h"
+
+#include <filesystem>
 
 #include <cmath>
 #include <fstream>
@@ -112,9 +115,7 @@ void parse_simulation(const toml::table &t, Scene &scene)
     if (s.grid_spacing_m && f.has("points_per_wavelength"))
         f.fail("points_per_wavelength", "give either points_per_wavelength or grid_spacing_m, not both");
     if (auto v = f.positive("f_max_hz"))
-        s.f_max_hz = *v;
-    else if (!s.grid_spacing_m)
-        f.fail("f_max_hz", "missing (required unless grid_spacing_m is given)");
+        s.f_max_hz = *v;  // else: from [pulse], or refused after all sections are read
     if (auto v = f.positive("points_per_wavelength")) {
         if (*v < 4)
             f.fail("points_per_wavelength", "must be >= 4, got " + format_number(*v));
@@ -148,9 +149,48 @@ struct Section {
     bool required;
     void (*parse)(const toml::table &, Scene &);
 };
+void parse_active_area_section(const toml::table &t, Scene &scene)
+{
+    scene.active_area = parse_active_area(Fields(t, scene.file, "active_area", {"rect_m", "frame_margin_m", "clearance_m"}));
+}
+
+void parse_exciters_section(const toml::table &t, Scene &scene)
+{
+    scene.exciters = parse_exciters(Fields(t, scene.file, "exciters",
+                                           {"count", "placement", "criterion", "seed", "min_spacing_m",
+                                            "force_full_scale_n", "positions_m", "site_spacing_m", "restarts",
+                                            "iterations"}));
+}
+
+void parse_foci_section(const toml::table &t, Scene &scene)
+{
+    Fields f(t, scene.file, "foci", {"grid", "points_m", "ids"});
+    if (f.has("grid") && !scene.active_area)
+        f.fail("grid", "needs an [active_area] to divide (or give points_m)");
+    scene.foci = parse_foci(f, scene.active_area.value_or(pipeline::ActiveAreaSpec{}));
+}
+
+void parse_pulse_section(const toml::table &t, Scene &scene)
+{
+    scene.pulse = parse_pulse(Fields(t, scene.file, "pulse", {"shape", "centre_hz", "cycles", "amplitude_m"}));
+}
+
+void parse_calibration_section(const toml::table &t, Scene &scene)
+{
+    scene.calibration = parse_calibration(Fields(t, scene.file, "calibration",
+                                                 {"window_s", "truncate_fraction", "output_rate_hz", "sample_format",
+                                                  "threshold_m", "dither", "accuracy", "verify_tail_s"}));
+}
+
+// The order matters where a section uses another: [foci] grids divide the active area.
 constexpr Section sections[] = {
     {"plate", true, parse_plate},
-    {"simulation", true, parse_simulation},
+    {"simulation", false, parse_simulation},
+    {"active_area", false, parse_active_area_section},
+    {"exciters", false, parse_exciters_section},
+    {"foci", false, parse_foci_section},
+    {"pulse", false, parse_pulse_section},
+    {"calibration", false, parse_calibration_section},
 };
 
 }  // namespace
@@ -196,6 +236,15 @@ Scene parse_scene(std::string_view text, const std::string &file_name)
         if (!n->as_table())
             throw SceneError(file_name + ": " + s.name + ": must be a table ([" + s.name + "])");
         s.parse(*n->as_table(), scene);
+    }
+    if (scene.name.empty())
+        scene.name = std::filesystem::path(file_name).stem().string();
+    // The grid resolves the pulse's band unless told otherwise.
+    if (scene.simulation.f_max_hz == 0 && !scene.simulation.grid_spacing_m) {
+        if (!scene.pulse)
+            throw SceneError(file_name + ": simulation.f_max_hz: missing (required unless grid_spacing_m is given or "
+                                         "the scene has a [pulse])");
+        scene.simulation.f_max_hz = pipeline::pulse_max_frequency_hz(*scene.pulse);
     }
     return scene;
 }

@@ -8,6 +8,7 @@
 #include "engine/plate_operator.h"
 #include "engine/simulation.h"
 #include "physics/material.h"
+#include "pipeline/spec.h"
 
 #include <memory>
 #include <optional>
@@ -45,9 +46,16 @@ struct SimulationSpec {
 
 struct Scene {
     std::string file;  // as given, for messages
-    std::string name;  // optional top-level `name = "..."`
+    std::string name;  // top-level `name = "..."`, default: the file name without .toml
     PlateSpec plate;
     SimulationSpec simulation;
+    // The calibration sections (docs/scene-format.md); `calibrate` needs all five.
+    std::optional<pipeline::ActiveAreaSpec> active_area;
+    std::optional<pipeline::ExcitersSpec> exciters;
+    std::optional<pipeline::FociSpec> foci;
+    std::optional<pipeline::PulseSpec> pulse;
+    std::optional<pipeline::CalibrationSpec> calibration;
+    bool calibration_sections() const { return active_area && exciters && foci && pulse && calibration; }
 };
 
 // Throws SceneError (one line: "file: key: problem").

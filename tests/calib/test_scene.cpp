@@ -116,7 +116,7 @@ TEST(Scene, BadValuesNameTheKey)
     EXPECT_EQ(error_of(replace(good, "t60_s = [0.2, 0.1]", "t60_s = [0.1, 0.2]")),
               "scene.toml: plate.loss: loss: T60 must not grow with frequency (0.1 s at 100 Hz, 0.2 s at 1000 Hz)");
     EXPECT_EQ(error_of(replace(good, "f_max_hz = 1000\n", "")),
-              "scene.toml: simulation.f_max_hz: missing (required unless grid_spacing_m is given)");
+              "scene.toml: simulation.f_max_hz: missing (required unless grid_spacing_m is given or the scene has a [pulse])");
 }
 
 TEST(Scene, UnknownKeysAndSectionsAreRefusedWithTheKnownOnes)
@@ -124,7 +124,8 @@ TEST(Scene, UnknownKeysAndSectionsAreRefusedWithTheKnownOnes)
     EXPECT_EQ(error_of(replace(good, "thickness_m = 0.002", "thickness_m = 0.002\ncolour = \"red\"")),
               "scene.toml: plate.colour: unknown key (known: size_m, thickness_m, material, edges, loss)");
     EXPECT_EQ(error_of(std::string(good) + "\n[plate_extra]\nx = 1\n"),
-              "scene.toml: plate_extra: unknown section (known: name, plate, simulation)");
+              "scene.toml: plate_extra: unknown section (known: name, plate, simulation, active_area, exciters, foci, "
+              "pulse, calibration)");
     EXPECT_EQ(error_of(replace(good, "frequencies_hz", "freqs")),
               "scene.toml: plate.loss.freqs: unknown key (known: frequencies_hz, t60_s)");
     EXPECT_EQ(error_of("[plate]\nsize_m = [1, 1]\n"), "scene.toml: plate.thickness_m: missing (required)");

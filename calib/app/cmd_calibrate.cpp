@@ -1,0 +1,276 @@
+// `calibgen calibrate SCENE -o TABLE --report DIR` and
+// `calibgen verify SCENE TABLE --report DIR [--drive FILE.wav --expect T:ID,...]`.
+#include "app/commands.h"
+#include "app/progress.h"
+#include "pipeline/calibrate.h"
+#include "report/calibration_report.h"
+#include "scene/scene.h"
+
+#include <haptic_table.h>
+#include <sndfile.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+namespace calib::app {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string read_bytes(const std::string &path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+        throw std::runtime_error(path + ": cannot open scene file");
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+pipeline::CalibrationInput input_from_scene(const std::string &path)
+{
+    const std::string bytes = read_bytes(path);
+    scene::Scene s = scene::parse_scene(bytes, path);
+    if (!s.calibration_sections())
+        throw std::runtime_error(path + ": not a calibration scene: it needs [active_area], [exciters], [foci], "
+                                        "[pulse] and [calibration] sections");
+    scene::PlateSetup setup = scene::build_plate(s);
+    pipeline::CalibrationInput in;
+    in.scene_name = s.name;
+    in.scene_hash = pipeline::scene_hash(bytes);
+    in.plate = setup.plate;
+    in.simulation = setup.options;
+    in.active = *s.active_area;
+    in.exciters = *s.exciters;
+    in.foci = *s.foci;
+    in.pulse = *s.pulse;
+    in.calibration = *s.calibration;
+    try {
+        pipeline::check_feasible(in);
+    } catch (const std::invalid_argument &e) {
+        throw std::runtime_error(path + ": " + e.what());
+    }
+    return in;
+}
+
+void print_summary(const pipeline::Verification &v, const pipeline::CalibrationInput &in, bool table_mode)
+{
+    std::fprintf(stderr, "%-6s %9s %9s %10s %11s %9s %9s %s\n", "focus", "x_mm", "y_mm", "peak_um", "others_um",
+                 "contr_dB", "spot_mm", "threshold");
+    for (const pipeline::FocusMetrics &m : v.foci)
+        std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %11.2f %9.1f %9.1f %s\n", m.id, m.at.x_m * 1e3, m.at.y_m * 1e3,
+                     m.peak_m * 1e6, table_mode ? m.max_other_foci_m * 1e6 : NAN, table_mode ? m.contrast_db : NAN,
+                     table_mode ? m.spot_diameter_m * 1e3 : NAN,
+                     !m.crosses_threshold ? "peak below"
+                     : (table_mode && !m.others_below_threshold) ? "others cross"
+                                                                 : "ok");
+    std::fprintf(stderr, "(threshold %.1f um, lambda/2 = %.1f mm, exciter force at full scale %.3g N)\n",
+                 in.calibration.threshold_m * 1e6, v.foci.empty() ? 0.0 : v.foci[0].lambda_half_m * 1e3,
+                 in.exciters.force_full_scale_n);
+}
+
+bool all_good(const pipeline::Verification &v)
+{
+    for (const pipeline::FocusMetrics &m : v.foci)
+        if (!m.crosses_threshold || !m.others_below_threshold)
+            return false;
+    return true;
+}
+
+struct CalibrateArgs {
+    std::string scene, table, report;
+    bool quiet = false;
+};
+
+int run_calibrate(const CalibrateArgs &a)
+{
+    const auto t0 = Clock::now();
+    pipeline::CalibrationInput in = input_from_scene(a.scene);
+    Progress progress(a.quiet);
+    const auto &g = in.plate->grid();
+    progress.note("scene " + in.scene_name + ": grid " + std::to_string(g.nx) + " x " + std::to_string(g.ny) +
+                  " cells of " + std::to_string(g.h * 1e3).substr(0, 5) + " mm, " +
+                  std::to_string(in.foci.points.size()) + " foci, " + std::to_string(in.exciters.count) + " exciters");
+    pipeline::CalibrationResult r = pipeline::calibrate(in, progress.callback());
+    pipeline::write_table(a.table, in, r);
+    const pipeline::PlacementReport &p = r.placement;
+    if (!p.regular.empty())
+        progress.note("placement: predicted worst-case contrast " + std::to_string(p.chosen_contrast_db).substr(0, 5) +
+                      " dB chosen vs " + std::to_string(p.regular_contrast_db).substr(0, 5) +
+                      " dB regular; distance variety " + std::to_string(p.chosen_variety).substr(0, 4) + " vs " +
+                      std::to_string(p.regular_variety).substr(0, 4));
+    if (!a.quiet)
+        print_summary(r.verification, in, true);
+    if (!a.report.empty()) {
+        report::ReportContext ctx;
+        ctx.input = &in;
+        ctx.result = &r;
+        ctx.verification = &r.verification;
+        ctx.exciters = r.exciters;
+        ctx.table_path = a.table;
+        ctx.scene_path = a.scene;
+        ctx.total_s = std::chrono::duration<double>(Clock::now() - t0).count();
+        ctx.peak_rss_mb = report::peak_rss_mb();
+        report::write_metrics_json(a.report, ctx);
+        report::write_html_report(a.report, ctx);
+    }
+    progress.note("wrote " + a.table + (a.report.empty() ? "" : " and " + a.report + "/index.html") + " in " +
+                  std::to_string(std::chrono::duration<double>(Clock::now() - t0).count()).substr(0, 5) +
+                  " s, peak memory " + std::to_string(report::peak_rss_mb()).substr(0, 5) + " MB");
+    return 0;
+}
+
+struct VerifyArgs {
+    std::string scene, table, report, drive, expect;
+    bool quiet = false;
+};
+
+// "0.0:5,0.5:1": from each time (s), until the next, focus ID must peak highest.
+std::vector<std::pair<double, uint32_t>> parse_expect(const std::string &s)
+{
+    std::vector<std::pair<double, uint32_t>> out;
+    std::stringstream ss(s);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        double t;
+        unsigned id;
+        char colon;
+        std::istringstream is(item);
+        if (!(is >> t >> colon >> id) || colon != ':' || t < 0)
+            throw std::runtime_error("--expect: \"" + item + "\" is not TIME_S:FOCUS_ID");
+        out.push_back({t, id});
+    }
+    return out;
+}
+
+int run_verify(const VerifyArgs &a)
+{
+    const auto t0 = Clock::now();
+    pipeline::CalibrationInput in = input_from_scene(a.scene);
+    haptic_table t{};
+    haptic_table_error err{};
+    if (haptic_table_open(a.table.c_str(), &t, &err) != 0)
+        throw std::runtime_error(a.table + ": " + err.message);
+    std::unique_ptr<haptic_table, void (*)(haptic_table *)> guard(&t, haptic_table_close);
+    std::vector<pipeline::Point> exciters(t.channel_count);
+    for (uint32_t c = 0; c < t.channel_count; c++)
+        haptic_table_channel_position(&t, c, &exciters[c].x_m, &exciters[c].y_m);
+    // The table's foci must be the scene's, in the scene's order.
+    if (t.focus_count != in.foci.points.size())
+        throw std::runtime_error(a.table + ": " + std::to_string(t.focus_count) + " foci, the scene has " +
+                                 std::to_string(in.foci.points.size()));
+    std::vector<std::vector<int16_t>> signals;
+    for (uint32_t f = 0; f < t.focus_count; f++) {
+        haptic_focus_info fi;
+        haptic_table_focus(&t, f, &fi);
+        const pipeline::FocusPoint &sf = in.foci.points[f];
+        if (fi.id != sf.id || std::hypot(fi.x_m - sf.at.x_m, fi.y_m - sf.at.y_m) > 1e-6)
+            throw std::runtime_error(a.table + ": focus " + std::to_string(f) + " (id " + std::to_string(fi.id) +
+                                     ") does not match the scene's focus id " + std::to_string(sf.id));
+        const int16_t *s = haptic_table_signal(&t, f);
+        signals.emplace_back(s, s + static_cast<size_t>(t.samples_per_signal) * t.channel_count);
+    }
+    Progress progress(a.quiet);
+    pipeline::Verification v;
+    bool ok = true;
+    std::string mode = "table";
+    if (a.drive.empty()) {
+        v = pipeline::verify_signals(in, exciters, signals, t.sample_rate_hz, progress.callback());
+        ok = all_good(v);
+    } else {
+        mode = "drive";
+        SF_INFO info{};
+        SNDFILE *snd = sf_open(a.drive.c_str(), SFM_READ, &info);
+        if (!snd)
+            throw std::runtime_error(a.drive + ": " + sf_strerror(nullptr));
+        std::vector<float> frames(static_cast<size_t>(info.frames) * static_cast<size_t>(info.channels));
+        const sf_count_t got = sf_readf_float(snd, frames.data(), info.frames);
+        sf_close(snd);
+        if (got != info.frames)
+            throw std::runtime_error(a.drive + ": short read");
+        if (static_cast<unsigned>(info.channels) != t.channel_count)
+            throw std::runtime_error(a.drive + ": " + std::to_string(info.channels) + " channels, the table has " +
+                                     std::to_string(t.channel_count));
+        v = pipeline::verify_drive(in, exciters, frames, static_cast<unsigned>(info.channels), info.samplerate,
+                                   progress.callback());
+        // Each expected trigger: within its window, the asked focus peaks highest and crosses the threshold.
+        const auto expect = parse_expect(a.expect);
+        const std::vector<std::vector<double>> &tr = v.traces[0];
+        for (size_t e = 0; e < expect.size(); e++) {
+            const double t_from = expect[e].first;
+            const double t_to = e + 1 < expect.size() ? expect[e + 1].first : 1e30;
+            const auto n0 = static_cast<size_t>(t_from * v.trace_rate_hz);
+            const auto n1 = static_cast<size_t>(std::min(t_to * v.trace_rate_hz, double(tr[0].size())));
+            uint32_t best_id = 0;
+            double best = -1, asked = 0;
+            for (size_t g = 0; g < tr.size(); g++) {
+                double peak = 0;
+                for (size_t n = n0; n < n1 && n < tr[g].size(); n++)
+                    peak = std::max(peak, std::abs(tr[g][n]));
+                if (peak > best) {
+                    best = peak;
+                    best_id = in.foci.points[g].id;
+                }
+                if (in.foci.points[g].id == expect[e].second)
+                    asked = peak;
+            }
+            const bool hit = best_id == expect[e].second && asked >= in.calibration.threshold_m;
+            ok &= hit;
+            std::fprintf(stderr, "drive from %.3f s: focus %u asked, focus %u peaks highest (%.2f um) %s\n", t_from,
+                         expect[e].second, best_id, best * 1e6, hit ? "ok" : "MISMATCH");
+        }
+    }
+    if (!a.quiet)
+        print_summary(v, in, mode == "table");
+    if (!a.report.empty()) {
+        report::ReportContext ctx;
+        ctx.input = &in;
+        ctx.verification = &v;
+        ctx.exciters = exciters;
+        ctx.table_path = a.table;
+        ctx.scene_path = a.scene;
+        ctx.mode = mode;
+        ctx.total_s = std::chrono::duration<double>(Clock::now() - t0).count();
+        ctx.peak_rss_mb = report::peak_rss_mb();
+        report::write_metrics_json(a.report, ctx);
+        report::write_html_report(a.report, ctx);
+    }
+    std::fprintf(stderr, "verify: %s\n", ok ? "every criterion met" : "criteria NOT met (see above)");
+    return ok ? 0 : 3;
+}
+
+}  // namespace
+
+void register_calibrate(CLI::App &app, int &exit_code)
+{
+    auto a = std::make_shared<CalibrateArgs>();
+    CLI::App *cmd = app.add_subcommand("calibrate", "Simulate, place exciters, write the time-reversal table, verify");
+    cmd->add_option("scene", a->scene, "Scene file (TOML)")->required();
+    cmd->add_option("-o,--output", a->table, "Table to write (.htab)")->required();
+    cmd->add_option("--report", a->report, "Directory for metrics.json and index.html");
+    cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary on stderr");
+    cmd->callback([a, &exit_code] { exit_code = run_calibrate(*a); });
+}
+
+void register_verify(CLI::App &app, int &exit_code)
+{
+    auto a = std::make_shared<VerifyArgs>();
+    CLI::App *cmd = app.add_subcommand(
+        "verify", "Forward-simulate a table's quantized signals (or a device recording) and measure every focus; "
+                  "exit 3 when a criterion is not met");
+    cmd->add_option("scene", a->scene, "Scene file (TOML)")->required();
+    cmd->add_option("table", a->table, "Table (.htab)")->required();
+    cmd->add_option("--report", a->report, "Directory for metrics.json and index.html");
+    cmd->add_option("--drive", a->drive, "Multichannel WAV the device played, simulated instead of the table");
+    cmd->add_option("--expect", a->expect, "With --drive: TIME_S:FOCUS_ID,... the focus each trigger asked for");
+    cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary on stderr");
+    cmd->callback([a, &exit_code] { exit_code = run_verify(*a); });
+}
+
+}  // namespace calib::app

@@ -1,0 +1,60 @@
+// What a scene asks of the calibration (the [active_area], [exciters],
+// [foci], [pulse] and [calibration] sections; docs/scene-format.md). Plain
+// data: the scene parser fills it and checks each key, the pipeline reads it.
+#pragma once
+#include "pipeline/placement.h"
+#include "pipeline/pulse.h"
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace calib::pipeline {
+
+// [active_area]: the transparent touch area and the frame.
+struct ActiveAreaSpec {
+    Rect area;                    // x0, y0, x1, y1 (m), plate origin at the lower-left corner
+    double frame_margin_m = 0.0;  // no exciter closer than this to the plate edge
+    double clearance_m = 0.0;     // no exciter closer than this to the active area
+};
+
+enum class PlacementMode { random, regular, fixed };
+enum class PlacementCriterion { contrast, distance_variety };
+
+// [exciters]
+struct ExcitersSpec {
+    unsigned count = 8;
+    PlacementMode placement = PlacementMode::random;
+    PlacementCriterion criterion = PlacementCriterion::contrast;
+    uint64_t seed = 1;
+    double min_spacing_m = 0.05;
+    double force_full_scale_n = 1.0;       // force an exciter applies at digital full scale
+    std::vector<Point> positions;          // placement = "fixed"
+    std::optional<double> site_spacing_m;  // candidate lattice; default lambda/8 at the pulse centre
+    unsigned restarts = 8;
+    unsigned iterations = 1500;
+};
+
+// [foci]
+struct FocusPoint {
+    uint32_t id = 0;
+    Point at;
+};
+struct FociSpec {
+    std::vector<FocusPoint> points;  // from grid = [nx, ny] inside the active area, or explicit points
+};
+
+// [calibration]
+struct CalibrationSpec {
+    double window_s = 0.2;            // recording window after the pulse starts at a focus
+    double truncate_fraction = 0.3;   // the seed's 30 %
+    double output_rate_hz = 48000;
+    std::string sample_format = "s16";
+    double threshold_m = 5e-6;        // perception threshold (the seed's 5 um)
+    bool dither = true;
+    std::optional<double> accuracy;   // target relative phase-velocity error (issue #6)
+    double verify_tail_s = 0.1;       // verification runs this long after the drive ends
+};
+
+}  // namespace calib::pipeline

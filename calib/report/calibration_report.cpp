@@ -1,0 +1,391 @@
+#include "report/calibration_report.h"
+
+#include "io/atomic_file.h"
+#include "physics/dispersion.h"
+#include "report/plot.h"
+
+#include <toml++/toml.h>
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <sstream>
+
+namespace calib::report {
+
+using pipeline::FocusMetrics;
+using pipeline::Point;
+
+double peak_rss_mb()
+{
+    struct rusage ru {};
+    getrusage(RUSAGE_SELF, &ru);
+    return static_cast<double>(ru.ru_maxrss) / 1024.0;  // Linux: kilobytes
+}
+
+namespace {
+
+void make_dir(const std::string &dir)
+{
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec)
+        throw std::runtime_error(dir + ": cannot create the report directory: " + ec.message());
+}
+
+toml::array points_array(const std::vector<Point> &pts)
+{
+    toml::array a;
+    for (Point p : pts)
+        a.push_back(toml::table{{"x_m", p.x_m}, {"y_m", p.y_m}});
+    return a;
+}
+
+}  // namespace
+
+void write_metrics_json(const std::string &dir, const ReportContext &c)
+{
+    make_dir(dir);
+    const pipeline::CalibrationInput &in = *c.input;
+    toml::array foci;
+    bool all_cross = true, all_below = true;
+    double min_contrast = INFINITY;
+    for (const FocusMetrics &m : c.verification->foci) {
+        toml::table t{{"id", static_cast<int64_t>(m.id)},
+                      {"x_m", m.at.x_m},
+                      {"y_m", m.at.y_m},
+                      {"peak_m", m.peak_m},
+                      {"peak_time_s", m.peak_time_s},
+                      {"lambda_half_m", m.lambda_half_m},
+                      {"crosses_threshold", m.crosses_threshold}};
+        if (c.mode == "table") {
+            t.insert("max_other_foci_m", m.max_other_foci_m);
+            t.insert("contrast_db", m.contrast_db);
+            t.insert("spot_diameter_m", m.spot_diameter_m);
+            t.insert("others_below_threshold", m.others_below_threshold);
+            all_below &= m.others_below_threshold;
+            min_contrast = std::min(min_contrast, m.contrast_db);
+        }
+        all_cross &= m.crosses_threshold;
+        foci.push_back(std::move(t));
+    }
+    toml::table root{{"scene", in.scene_name},
+                     {"scene_file", c.scene_path},
+                     {"scene_hash", in.scene_hash},
+                     {"table", c.table_path},
+                     {"mode", c.mode},
+                     {"threshold_m", in.calibration.threshold_m},
+                     {"force_full_scale_n", in.exciters.force_full_scale_n},
+                     {"pulse_centre_hz", in.pulse.centre_hz},
+                     {"exciters", points_array(c.exciters)},
+                     {"foci", std::move(foci)},
+                     {"all_cross_threshold", all_cross}};
+    if (c.mode == "table") {
+        root.insert("all_others_below_threshold", all_below);
+        root.insert("min_contrast_db", min_contrast);
+    }
+    if (c.result) {
+        const pipeline::PlacementReport &p = c.result->placement;
+        root.insert("placement",
+                    toml::table{{"chosen_predicted_contrast_db", p.chosen_contrast_db},
+                                {"regular_predicted_contrast_db", p.regular_contrast_db},
+                                {"chosen_distance_variety", p.chosen_variety},
+                                {"regular_distance_variety", p.regular_variety},
+                                {"candidate_sites", static_cast<int64_t>(p.sites.size())},
+                                {"evaluations", static_cast<int64_t>(p.evaluations)}});
+        const pipeline::StageTimes &s = c.result->times;
+        root.insert("times_s", toml::table{{"simulation", s.simulation_s},
+                                           {"search", s.search_s},
+                                           {"signals", s.signals_s},
+                                           {"verification", s.verification_s},
+                                           {"total", c.total_s}});
+    }
+    root.insert("peak_rss_mb", c.peak_rss_mb);
+    std::ostringstream os;
+    os << toml::json_formatter{root} << "\n";
+    io::write_file_atomic(dir + "/metrics.json", os.str());
+}
+
+namespace {
+
+std::string base64(const std::vector<uint8_t> &in)
+{
+    static const char *t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    out.reserve((in.size() + 2) / 3 * 4);
+    for (size_t i = 0; i < in.size(); i += 3) {
+        const uint32_t v = (uint32_t(in[i]) << 16) | (i + 1 < in.size() ? uint32_t(in[i + 1]) << 8 : 0) |
+                           (i + 2 < in.size() ? uint32_t(in[i + 2]) : 0);
+        out += t[(v >> 18) & 63];
+        out += t[(v >> 12) & 63];
+        out += i + 1 < in.size() ? t[(v >> 6) & 63] : '=';
+        out += i + 2 < in.size() ? t[v & 63] : '=';
+    }
+    return out;
+}
+
+std::string esc(const std::string &s)
+{
+    std::string o;
+    for (char ch : s) {
+        switch (ch) {
+        case '<': o += "&lt;"; break;
+        case '>': o += "&gt;"; break;
+        case '&': o += "&amp;"; break;
+        case '"': o += "&quot;"; break;
+        default: o += ch;
+        }
+    }
+    return o;
+}
+
+std::string num(double v, int prec = 3)
+{
+    std::ostringstream os;
+    os.precision(prec);
+    os << v;
+    return os.str();
+}
+
+// Perceptually ordered map (dark blue -> teal -> yellow), t in [0, 1].
+Color colormap(double t)
+{
+    static const double stops[5][3] = {{13, 8, 135}, {84, 2, 163}, {33, 145, 140}, {144, 215, 67}, {253, 231, 37}};
+    t = std::clamp(t, 0.0, 1.0) * 4;
+    const int i = std::min(3, static_cast<int>(t));
+    const double u = t - i;
+    auto ch = [&](int k) { return static_cast<uint8_t>(stops[i][k] + u * (stops[i + 1][k] - stops[i][k])); };
+    return {ch(0), ch(1), ch(2)};
+}
+
+// Plate coordinates -> SVG pixels (y up on the plate, down in SVG).
+struct View {
+    double scale, lx, ly, pad = 20;
+    double X(double x) const { return pad + x * scale; }
+    double Y(double y) const { return pad + (ly - y) * scale; }
+};
+
+std::string layout_svg(const ReportContext &c, const std::string &underlay_png_b64 = "")
+{
+    const auto &pp = c.input->plate->params();
+    View v{420.0 / std::max(pp.size_x_m, pp.size_y_m), pp.size_x_m, pp.size_y_m};
+    const double w = v.X(pp.size_x_m) + v.pad, h = v.Y(0) + v.pad;
+    std::ostringstream s;
+    s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << w << "' height='" << h << "' viewBox='0 0 " << w << " "
+      << h << "' font-family='sans-serif' font-size='11'>";
+    if (!underlay_png_b64.empty())
+        s << "<image x='" << v.X(0) << "' y='" << v.Y(pp.size_y_m) << "' width='" << pp.size_x_m * v.scale
+          << "' height='" << pp.size_y_m * v.scale << "' preserveAspectRatio='none' href='data:image/png;base64,"
+          << underlay_png_b64 << "'/>";
+    s << "<rect x='" << v.X(0) << "' y='" << v.Y(pp.size_y_m) << "' width='" << pp.size_x_m * v.scale << "' height='"
+      << pp.size_y_m * v.scale << "' fill='" << (underlay_png_b64.empty() ? "#eef3f8" : "none")
+      << "' stroke='#333' stroke-width='2'/>";
+    const pipeline::Rect &a = c.input->active.area;
+    s << "<rect x='" << v.X(a.x0_m) << "' y='" << v.Y(a.y1_m) << "' width='" << (a.x1_m - a.x0_m) * v.scale
+      << "' height='" << (a.y1_m - a.y0_m) * v.scale << "' fill='none' stroke='#2a7' stroke-dasharray='6 4'/>";
+    if (underlay_png_b64.empty() && c.result) {
+        for (Point p : c.result->placement.sites)
+            s << "<circle cx='" << v.X(p.x_m) << "' cy='" << v.Y(p.y_m) << "' r='1.2' fill='#99a'/>";
+        for (size_t i : c.result->placement.regular) {
+            const Point p = c.result->placement.sites[i];
+            s << "<rect x='" << v.X(p.x_m) - 5 << "' y='" << v.Y(p.y_m) - 5
+              << "' width='10' height='10' fill='none' stroke='#36c' stroke-width='1.5'/>";
+        }
+    }
+    const double spot = c.input->foci.points.empty() ? 0 : c.verification->foci[0].lambda_half_m / 2;
+    for (const pipeline::FocusPoint &f : c.input->foci.points) {
+        s << "<circle cx='" << v.X(f.at.x_m) << "' cy='" << v.Y(f.at.y_m) << "' r='" << spot * v.scale
+          << "' fill='none' stroke='#e55' stroke-dasharray='3 3'/>";
+        s << "<circle cx='" << v.X(f.at.x_m) << "' cy='" << v.Y(f.at.y_m) << "' r='3' fill='#e55'/>";
+        s << "<text x='" << v.X(f.at.x_m) + 5 << "' y='" << v.Y(f.at.y_m) - 5 << "' fill='"
+          << (underlay_png_b64.empty() ? "#a22" : "#fff") << "'>" << f.id << "</text>";
+    }
+    for (size_t e = 0; e < c.exciters.size(); e++) {
+        const Point p = c.exciters[e];
+        s << "<rect x='" << v.X(p.x_m) - 5 << "' y='" << v.Y(p.y_m) - 5
+          << "' width='10' height='10' fill='#d33' stroke='#000'/><text x='" << v.X(p.x_m) + 7 << "' y='"
+          << v.Y(p.y_m) + 4 << "' fill='" << (underlay_png_b64.empty() ? "#000" : "#fff") << "'>" << e << "</text>";
+    }
+    s << "</svg>";
+    return s.str();
+}
+
+std::string snapshot_svg(const ReportContext &c, size_t f)
+{
+    const pipeline::Verification &v = *c.verification;
+    const std::vector<float> &field = v.snapshots[f];
+    const int w = v.grid_nx + 1, h = v.grid_ny + 1;
+    const double peak = std::max(1e-30, static_cast<double>(*std::max_element(field.begin(), field.end())));
+    Image img;
+    img.width = w;
+    img.height = h;
+    img.rgb.resize(static_cast<size_t>(w) * h * 3);
+    for (int j = 0; j < h; j++)
+        for (int i = 0; i < w; i++) {
+            const Color col = colormap(field[static_cast<size_t>(j) * w + i] / peak);
+            uint8_t *px = &img.rgb[(static_cast<size_t>(h - 1 - j) * w + i) * 3];  // top row = y max
+            px[0] = col.r;
+            px[1] = col.g;
+            px[2] = col.b;
+        }
+    return layout_svg(c, base64(encode_png(img)));
+}
+
+// Min/max per bin: a long trace drawn with <= 2 * bins points, peaks kept.
+Series envelope_series(const std::string &label, const std::vector<double> &y, double rate, size_t bins, double scale)
+{
+    Series s;
+    s.label = label;
+    const size_t per = std::max<size_t>(1, y.size() / bins);
+    for (size_t b = 0; b * per < y.size(); b++) {
+        const size_t end = std::min(y.size(), (b + 1) * per);
+        auto [lo, hi] = std::minmax_element(y.begin() + static_cast<long>(b * per), y.begin() + static_cast<long>(end));
+        const double t = static_cast<double>(b * per) / rate * 1e3;
+        s.x.insert(s.x.end(), {t, t});
+        s.y.insert(s.y.end(), {*lo * scale, *hi * scale});
+    }
+    s.width_px = 1.2;
+    return s;
+}
+
+std::string traces_svg(const ReportContext &c, size_t f)
+{
+    const pipeline::Verification &v = *c.verification;
+    Plot p;
+    p.title = c.mode == "table" ? "focus " + std::to_string(v.foci[f].id) + " driven: displacement at every focus"
+                                : "device drive: displacement at every focus";
+    p.x = Axis("time (ms)");
+    p.y = Axis("displacement (um)");
+    p.width_px = 560;
+    p.height_px = 300;
+    p.legend = LegendPosition::top_right;
+    const double thr = c.input->calibration.threshold_m * 1e6;
+    const std::vector<std::vector<double>> &tr = v.traces[f];
+    const double t_end = static_cast<double>(tr[0].size()) / v.trace_rate_hz * 1e3;
+    for (size_t g = 0; g < tr.size(); g++) {
+        Series s = envelope_series(c.mode == "table" && g == f ? "focus " + std::to_string(v.foci[g].id) + " (driven)"
+                                                               : (g == 0 && c.mode == "table" ? "other foci" : ""),
+                                   tr[g], v.trace_rate_hz, 600, 1e6);
+        if (c.mode == "table") {
+            s.color = g == f ? Color{214, 39, 40} : Color{150, 150, 160};
+            if (g == f)
+                s.width_px = 1.8;
+        } else {
+            s.label = "focus " + std::to_string(v.foci[g].id);
+        }
+        p.add(std::move(s));
+    }
+    if (c.mode == "table")  // draw the driven focus on top
+        std::rotate(p.series.begin() + static_cast<long>(f), p.series.begin() + static_cast<long>(f) + 1, p.series.end());
+    p.add(Series("threshold", {0, t_end}, {thr, thr}, LineStyle::dashed, Color{0, 0, 0}));
+    p.add(Series("", {0, t_end}, {-thr, -thr}, LineStyle::dashed, Color{0, 0, 0}));
+    return render_svg(p);
+}
+
+std::string dispersion_svg(const ReportContext &c)
+{
+    const auto &pp = c.input->plate->params();
+    Plot p;
+    p.title = "A0 wavelength, " + pp.material.name + " " + num(pp.thickness_m * 1e3) + " mm";
+    p.x = Axis("frequency (Hz)", AxisScale::log);
+    p.y = Axis("wavelength (mm)", AxisScale::log);
+    p.width_px = 560;
+    p.height_px = 320;
+    std::vector<double> f, exact, kirch;
+    const double f_hi = 4 * c.input->pulse.centre_hz;
+    for (double x = 20; x <= f_hi; x *= 1.05) {
+        f.push_back(x);
+        exact.push_back(physics::a0_wavelength(pp.material, pp.thickness_m, x) * 1e3);
+        kirch.push_back(physics::kirchhoff_phase_velocity(pp.material, pp.thickness_m, x) / x * 1e3);
+    }
+    p.add(Series("A0 (Rayleigh-Lamb)", f, exact));
+    p.add(Series("Kirchhoff", f, kirch, LineStyle::dashed));
+    const double fc = c.input->pulse.centre_hz;
+    p.add(Series("pulse centre", {fc, fc}, {exact.back(), exact.front()}, LineStyle::dotted, Color{0, 0, 0}));
+    return render_svg(p);
+}
+
+}  // namespace
+
+void write_html_report(const std::string &dir, const ReportContext &c)
+{
+    make_dir(dir);
+    const pipeline::CalibrationInput &in = *c.input;
+    const pipeline::Verification &v = *c.verification;
+    std::ostringstream h;
+    char date[32];
+    const std::time_t now = std::time(nullptr);
+    std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
+    h << "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>calibration report: " << esc(in.scene_name)
+      << "</title><style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}"
+         "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
+         "th{background:#f4f4f4}.ok{color:#17803d}.bad{color:#c0262d;font-weight:bold}"
+         ".grid{display:flex;flex-wrap:wrap;gap:12px}.cell{border:1px solid #ddd;padding:6px}"
+         "figcaption{font-size:0.9em;color:#555}</style></head><body>";
+    h << "<h1>Calibration report: " << esc(in.scene_name) << "</h1><p>Scene <code>" << esc(c.scene_path)
+      << "</code> (" << esc(in.scene_hash) << "), table <code>" << esc(c.table_path) << "</code>, " << date
+      << ". Plate " << num(in.plate->params().size_x_m * 1e3) << " x " << num(in.plate->params().size_y_m * 1e3)
+      << " x " << num(in.plate->params().thickness_m * 1e3, 2) << " mm " << esc(in.plate->params().material.name)
+      << ", grid " << in.plate->grid().nx << " x " << in.plate->grid().ny << " cells of "
+      << num(in.plate->grid().h * 1e3) << " mm. Exciter force at full scale " << num(in.exciters.force_full_scale_n)
+      << " N, threshold " << num(in.calibration.threshold_m * 1e6) << " um.";
+    if (c.result)
+        h << " Run time " << num(c.total_s, 3) << " s (simulation " << num(c.result->times.simulation_s, 2)
+          << " s, search " << num(c.result->times.search_s, 2) << " s, signals " << num(c.result->times.signals_s, 2)
+          << " s, verification " << num(c.result->times.verification_s, 2) << " s), peak memory "
+          << num(c.peak_rss_mb, 3) << " MB.";
+    h << "</p>";
+
+    h << "<h2>Layout</h2><figure>" << layout_svg(c)
+      << "<figcaption>Plate, active area (green dashes), candidate sites (grey dots), the regular symmetric pattern "
+         "(blue squares), the chosen exciters (red squares, channel numbers) and the foci (red, dashed circle of "
+         "diameter lambda/2).</figcaption></figure>";
+    if (c.result) {
+        const pipeline::PlacementReport &p = c.result->placement;
+        h << "<h2>Placement</h2><table><tr><th>pattern</th><th>predicted worst-case contrast (dB)</th>"
+             "<th>distance variety (seed criterion)</th></tr><tr><td style='text-align:left'>regular symmetric</td><td>"
+          << (p.regular.empty() ? "-" : num(p.regular_contrast_db)) << "</td><td>"
+          << (p.regular.empty() ? "-" : num(p.regular_variety)) << "</td></tr><tr><td style='text-align:left'>chosen</td><td>"
+          << num(p.chosen_contrast_db) << "</td><td>" << num(p.chosen_variety) << "</td></tr></table><p>"
+          << p.sites.size() << " candidate sites, " << p.evaluations << " placements evaluated"
+          << (p.probe_rows.empty() ? "" : ", contrast also checked at " + std::to_string(p.probe_rows.size()) + " probe points")
+          << ".</p>";
+    }
+    h << "<h2>Metrics</h2><table><tr><th>focus</th><th>x (mm)</th><th>y (mm)</th><th>peak (um)</th>";
+    if (c.mode == "table")
+        h << "<th>max at other foci (um)</th><th>contrast (dB)</th><th>spot diameter (mm)</th><th>lambda/2 (mm)</th>"
+             "<th>crosses threshold</th><th>others below</th>";
+    else
+        h << "<th>peak time (ms)</th><th>crosses threshold</th>";
+    h << "</tr>";
+    auto yes = [](bool b) { return b ? std::string("<td class='ok'>yes</td>") : std::string("<td class='bad'>no</td>"); };
+    for (const FocusMetrics &m : v.foci) {
+        h << "<tr><td>" << m.id << "</td><td>" << num(m.at.x_m * 1e3) << "</td><td>" << num(m.at.y_m * 1e3)
+          << "</td><td>" << num(m.peak_m * 1e6) << "</td>";
+        if (c.mode == "table")
+            h << "<td>" << num(m.max_other_foci_m * 1e6) << "</td><td>" << num(m.contrast_db) << "</td><td>"
+              << num(m.spot_diameter_m * 1e3) << "</td><td>" << num(m.lambda_half_m * 1e3) << "</td>"
+              << yes(m.crosses_threshold) << yes(m.others_below_threshold);
+        else
+            h << "<td>" << num(m.peak_time_s * 1e3) << "</td>" << yes(m.crosses_threshold);
+        h << "</tr>";
+    }
+    h << "</table>";
+    if (c.mode == "table") {
+        h << "<h2>Wave field at the focus instant</h2><div class='grid'>";
+        for (size_t f = 0; f < v.foci.size(); f++)
+            h << "<figure class='cell'>" << snapshot_svg(c, f) << "<figcaption>|w| when focus " << v.foci[f].id
+              << " peaks (" << num(v.foci[f].peak_time_s * 1e3) << " ms), scaled to its maximum</figcaption></figure>";
+        h << "</div>";
+    }
+    h << "<h2>Displacement at the foci</h2><div class='grid'>";
+    for (size_t f = 0; f < v.traces.size(); f++)
+        h << "<figure class='cell'>" << traces_svg(c, f) << "</figure>";
+    h << "</div><h2>Dispersion</h2><figure>" << dispersion_svg(c) << "</figure></body></html>\n";
+    io::write_file_atomic(dir + "/index.html", h.str());
+}
+
+}  // namespace calib::report

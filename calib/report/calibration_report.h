@@ -1,0 +1,31 @@
+// What `calibgen calibrate` and `calibgen verify` leave in the report
+// directory: metrics.json (machine-readable, key names fixed by issue #4) and
+// index.html (self-contained: inline SVG and PNG data URIs, opens anywhere).
+#pragma once
+#include "pipeline/calibrate.h"
+
+#include <string>
+
+namespace calib::report {
+
+struct ReportContext {
+    const pipeline::CalibrationInput *input = nullptr;
+    const pipeline::CalibrationResult *result = nullptr;  // null for `verify` (no placement, no signals)
+    const pipeline::Verification *verification = nullptr;
+    std::vector<pipeline::Point> exciters;
+    std::string table_path;
+    std::string scene_path;
+    std::string mode = "table";  // "table" or "drive" (verify --drive)
+    double peak_rss_mb = 0;
+    double total_s = 0;
+};
+
+// metrics.json into dir (created if missing), atomically.
+void write_metrics_json(const std::string &dir, const ReportContext &ctx);
+// index.html into dir, atomically.
+void write_html_report(const std::string &dir, const ReportContext &ctx);
+
+// Peak resident set size of this process (MB), from getrusage.
+double peak_rss_mb();
+
+}  // namespace calib::report
