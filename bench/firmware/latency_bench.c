@@ -3,7 +3,9 @@
  * of snd_pcm_writei with the voice's first period), over >= 10^4 triggers
  * sent at random intervals through a FIFO to hapticd on the host-sim board
  * (ALSA file plugin, clock-paced). Also hapticd's resident memory.
- *   hapticd_latency_bench [triggers (10000)] [rt-priority (0)] [period_frames (64)] */
+ *   hapticd_latency_bench [triggers (10000)] [rt-priority (0)] [period_frames (64)] [rewind (1)]
+ * rewind 0 writes `rewind = false` in the board: triggers start at the next
+ * period boundary (the behaviour before rewinding, for comparison). */
 #define _GNU_SOURCE
 #include "bench_table.h"
 
@@ -25,6 +27,7 @@ int main(int argc, char **argv)
     long triggers = argc > 1 ? atol(argv[1]) : 10000;
     const char *prio = argc > 2 ? argv[2] : "0";
     const char *period = argc > 3 ? argv[3] : "64";
+    const int rewind = argc > 4 ? atoi(argv[4]) : 1;
     char dir[] = "/tmp/hapticd-lat-XXXXXX";
     if (!mkdtemp(dir))
         return 1;
@@ -39,9 +42,9 @@ int main(int argc, char **argv)
     if (bench_table_write(table, 9, 480) || mkfifo(fifo, 0600))
         return 1;
     FILE *bf = fopen(board, "w");
-    fprintf(bf, "[alsa]\ndevice = hostsim\nconfig = %.*s/asoundrc\nperiod_frames = %s\npacing = clock\n"
+    fprintf(bf, "[alsa]\ndevice = hostsim\nconfig = %.*s/asoundrc\nperiod_frames = %s\npacing = clock\nrewind = %s\n"
                 "[realtime]\nmlock = false\n",
-            (int)(strrchr(HOSTSIM_BOARD, '/') - HOSTSIM_BOARD), HOSTSIM_BOARD, period);
+            (int)(strrchr(HOSTSIM_BOARD, '/') - HOSTSIM_BOARD), HOSTSIM_BOARD, period, rewind ? "true" : "false");
     fclose(bf);
     char *args[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device,
                     "--latency-report", report, "--rt-priority", (char *)prio, NULL};
@@ -73,8 +76,8 @@ int main(int argc, char **argv)
     if (!f)
         return 1;
     char buf[256];
-    printf("hapticd host-sim, FIFO triggers at random 1-3 ms intervals, period %s frames, rt priority %s\n", period,
-           prio);
+    printf("hapticd host-sim, FIFO triggers at random 1-3 ms intervals, period %s frames, rt priority %s, rewind %s\n",
+           period, prio, rewind ? "on" : "off");
     long rss = 0, hwm = 0, anon = 0, table_bytes = 0;
     while (fgets(buf, sizeof buf, f)) {
         fputs(buf, stdout);

@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 static int load_config(const char *path, snd_config_t **out)
 {
@@ -59,6 +60,7 @@ static int set_params(struct hd_audio *a, const struct hd_board *b, const char *
         return *what = "hw_params", rc;
     snd_pcm_hw_params_get_period_size(hw, &a->period_frames, NULL);
     snd_pcm_hw_params_get_buffer_size(hw, &a->buffer_frames);
+    a->batch = snd_pcm_hw_params_is_batch(hw) == 1;
     if ((rc = snd_pcm_sw_params_current(a->pcm, sw)) < 0)
         return *what = "sw_params_current", rc;
     if ((rc = snd_pcm_sw_params_set_start_threshold(a->pcm, sw, a->buffer_frames)) < 0)
@@ -141,6 +143,10 @@ long hd_audio_prime(struct hd_audio *a)
     int rc = snd_pcm_start(a->pcm);
     if (rc < 0 && rc != -EBADFD)
         return rc;
+    a->written = done;
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    a->start_ns = (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
     return (long)done;
 }
 
@@ -148,8 +154,10 @@ int hd_audio_write(struct hd_audio *a, const void *frames_buf, uint32_t frames)
 {
     for (int attempt = 0; attempt < 4; attempt++) {
         int rc = write_all(a, frames_buf, frames);
-        if (rc == 0)
+        if (rc == 0) {
+            a->written += frames;
             return 0;
+        }
         if (rc != -EPIPE && rc != -ESTRPIPE) {
             a->errors++;
             return rc;
@@ -173,9 +181,109 @@ int hd_audio_write(struct hd_audio *a, const void *frames_buf, uint32_t frames)
     return -EIO;
 }
 
-int hd_audio_wait(struct hd_audio *a)
+void hd_audio_configure(struct hd_audio *a, int rewind, snd_pcm_uframes_t margin, int clock_paced)
 {
-    return snd_pcm_wait(a->pcm, 100);
+    a->rewind = rewind;
+    a->rewind_margin = a->batch && margin < a->period_frames ? a->period_frames : margin;
+    a->clock_paced = clock_paced;
+}
+
+static int transient(long err)
+{
+    return err == -EPIPE || err == -ESTRPIPE || err == -EAGAIN || err == -EINTR;
+}
+
+static void rewind_disable(struct hd_audio *a, long err)
+{
+    a->rewind = 0;
+    a->rewind_error = err < 0 ? (int)err : -ENOTSUP;
+}
+
+snd_pcm_sframes_t hd_audio_rewind_probe(struct hd_audio *a)
+{
+    if (!a->rewind)
+        return 0;
+    snd_pcm_sframes_t can = snd_pcm_rewindable(a->pcm);
+    if (can <= 0)
+        rewind_disable(a, can);
+    return can;
+}
+
+snd_pcm_uframes_t hd_audio_clock_queued(const struct hd_audio *a, uint64_t now_ns)
+{
+    uint64_t played = now_ns > a->start_ns ? (now_ns - a->start_ns) * a->rate_hz / 1000000000u : 0;
+    return played < a->written ? (snd_pcm_uframes_t)(a->written - played) : 0;
+}
+
+uint64_t hd_audio_clock_due_ns(const struct hd_audio *a)
+{
+    /* The period is due when the emulated device has played written +
+     * period - buffer frames; ceil so the room is really there. */
+    uint64_t need = a->written + a->period_frames;
+    if (need <= a->buffer_frames)
+        return a->start_ns;
+    return a->start_ns + ((need - a->buffer_frames) * 1000000000u + a->rate_hz - 1) / a->rate_hz;
+}
+
+snd_pcm_uframes_t hd_audio_rewind(struct hd_audio *a, snd_pcm_uframes_t limit, uint64_t now_ns)
+{
+    if (!a->rewind)
+        return 0;
+    snd_pcm_sframes_t can = snd_pcm_rewindable(a->pcm);
+    if (can < 0) {
+        if (!transient(can))
+            rewind_disable(a, can);
+        return 0;
+    }
+    if (a->clock_paced) {
+        snd_pcm_uframes_t queued = hd_audio_clock_queued(a, now_ns);
+        if ((snd_pcm_uframes_t)can > queued)
+            can = (snd_pcm_sframes_t)queued;
+    }
+    if ((snd_pcm_uframes_t)can <= a->rewind_margin)
+        return 0;
+    snd_pcm_uframes_t n = (snd_pcm_uframes_t)can - a->rewind_margin;
+    if (n > limit)
+        n = limit;
+    if (n == 0)
+        return 0;
+    snd_pcm_sframes_t r = snd_pcm_rewind(a->pcm, n);
+    if (r < 0) {
+        if (!transient(r))
+            rewind_disable(a, r);
+        return 0;
+    }
+    if ((snd_pcm_uframes_t)r > n) {
+        /* Went back further than asked (a plugin bug): forward the excess so
+         * the caller's count of frames to write again stays exact. */
+        snd_pcm_sframes_t f = snd_pcm_forward(a->pcm, (snd_pcm_uframes_t)r - n);
+        if (f != (snd_pcm_sframes_t)((snd_pcm_uframes_t)r - n)) {
+            rewind_disable(a, f < 0 ? f : -EIO);
+            return 0; /* unknown position: the next write errs or xruns, and is recovered */
+        }
+        r = (snd_pcm_sframes_t)n;
+    }
+    a->written -= (uint64_t)r;
+    return (snd_pcm_uframes_t)r;
+}
+
+int hd_audio_poll_fds(struct hd_audio *a, struct pollfd *pfd, int max)
+{
+    int n = snd_pcm_poll_descriptors_count(a->pcm);
+    if (n <= 0 || n > max)
+        return n <= 0 ? (n < 0 ? n : -EINVAL) : -E2BIG;
+    return snd_pcm_poll_descriptors(a->pcm, pfd, (unsigned)n);
+}
+
+int hd_audio_poll_ready(struct hd_audio *a, struct pollfd *pfd, int n)
+{
+    unsigned short revents = 0;
+    int rc = snd_pcm_poll_descriptors_revents(a->pcm, pfd, (unsigned)n, &revents);
+    if (rc < 0)
+        return rc;
+    if (revents & (POLLERR | POLLNVAL))
+        return -EPIPE;
+    return (revents & POLLOUT) != 0;
 }
 
 void hd_audio_close(struct hd_audio *a, int drain)

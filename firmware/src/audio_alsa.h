@@ -6,7 +6,10 @@
 #include "board.h"
 
 #include <alsa/asoundlib.h>
+#include <poll.h>
 #include <stdint.h>
+
+#define HD_AUDIO_MAX_PFDS 8
 
 struct hd_audio {
     snd_pcm_t *pcm;
@@ -16,6 +19,18 @@ struct hd_audio {
     size_t frame_bytes;
     void *silence;                    /* one period of zeros */
     uint64_t xruns, suspends, errors; /* written by the audio thread only */
+    /* Rewinding queued frames (a trigger answered at once). */
+    int rewind;                       /* 1: enabled; 0: off by the board, or disabled after an error */
+    int rewind_error;                 /* the error that disabled it (negative errno), 0 if none */
+    snd_pcm_uframes_t rewind_margin;  /* queued frames never rewound: the device may be reading them */
+    int batch;                        /* the driver reports its position per period (hw_params_is_batch) */
+    /* Clock pacing (file/null plugins never block nor advance a hardware
+     * pointer): a device is emulated that starts playing the pre-fill at
+     * start_ns and plays rate_hz frames per second; it limits the rewinds
+     * to the frames it has not played yet and says when a period is due. */
+    int clock_paced;
+    uint64_t start_ns;                /* CLOCK_MONOTONIC when the pre-fill started playing */
+    uint64_t written;                 /* frames written since the last pre-fill, the pre-fill included */
 };
 
 /* Open `device` (or the board's [alsa] device when NULL), through the board's
@@ -32,12 +47,37 @@ long hd_audio_prime(struct hd_audio *a);
  * written: never fatal. Returns 0, or a negative errno if recovery failed. */
 int hd_audio_write(struct hd_audio *a, const void *frames_buf, uint32_t frames);
 
-/* Device pacing: block until the device can take a period (up to 100 ms),
- * so the period is rendered just before it is written, with the freshest
- * triggers, instead of going stale while a blocking write waits for room.
- * Returns 1 when ready, 0 on timeout, negative errno (an xrun: the next
- * hd_audio_write recovers it). */
-int hd_audio_wait(struct hd_audio *a);
+/* Enable rewinding (the board's [alsa] rewind, rewind_margin_frames) and,
+ * with clock pacing, the emulated device. Call before hd_audio_prime. A
+ * batch device (position known only per period: the hardware may be
+ * reading anywhere in the current period) gets at least a period of margin. */
+void hd_audio_configure(struct hd_audio *a, int rewind, snd_pcm_uframes_t margin, int clock_paced);
+
+/* After hd_audio_prime: does the PCM rewind? With a full buffer queued,
+ * snd_pcm_rewindable must report frames; a PCM (plugin) reporting none or
+ * an error cannot, and rewinding is disabled. Returns the frames it can
+ * rewind now (> 0), 0 or a negative errno when it cannot. */
+snd_pcm_sframes_t hd_audio_rewind_probe(struct hd_audio *a);
+
+/* Rewind the queued frames the device has not started to read, keeping
+ * rewind_margin frames, and at most `limit` (what the caller can render
+ * again). Returns the frames rewound (the caller writes as many again), 0
+ * when there is nothing to rewind or rewinding is off. An xrun or suspend
+ * (-EPIPE, -ESTRPIPE, -EAGAIN) rewinds nothing this time (the next write
+ * recovers it); any other error disables rewinding for good and is kept
+ * in rewind_error. Real-time safe. now_ns: CLOCK_MONOTONIC (clock pacing). */
+snd_pcm_uframes_t hd_audio_rewind(struct hd_audio *a, snd_pcm_uframes_t limit, uint64_t now_ns);
+
+/* Clock pacing: frames of the emulated device's queue not played at now_ns,
+ * and when the next period is due (the queue has a period of room). */
+snd_pcm_uframes_t hd_audio_clock_queued(const struct hd_audio *a, uint64_t now_ns);
+uint64_t hd_audio_clock_due_ns(const struct hd_audio *a);
+
+/* Device pacing: the PCM's poll descriptors (at most max), to poll next to
+ * other fds; then whether they say the device has room (1), an error (< 0,
+ * the next write recovers it) or neither (0). */
+int hd_audio_poll_fds(struct hd_audio *a, struct pollfd *pfd, int max);
+int hd_audio_poll_ready(struct hd_audio *a, struct pollfd *pfd, int n);
 
 /* Stop: drain (play what is queued) or drop it. */
 void hd_audio_close(struct hd_audio *a, int drain);

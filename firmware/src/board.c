@@ -33,6 +33,8 @@ void hd_board_defaults(struct hd_board *b)
     for (unsigned c = 0; c < HD_MAX_CHANNELS; c++)
         b->channel_map[c] = c;
     b->pacing = HD_PACE_DEVICE;
+    b->rewind = true;
+    b->rewind_margin_frames = 32;
     b->lockout_ms = 50;
     b->gain_limit = 1.0;
     b->rt_priority = 80;
@@ -189,6 +191,13 @@ static int alsa_key(struct parse_ctx *c, const char *section, const char *name, 
             return bad(c, section, name, "'%s' is not 'device' or 'clock'", value);
         return 1;
     }
+    if (!strcmp(name, "rewind")) {
+        if (parse_bool(value, &b->rewind))
+            return bad(c, section, name, "'%s' is not true or false", value);
+        return 1;
+    }
+    if (!strcmp(name, "rewind_margin_frames"))
+        UINT_KEY(b->rewind_margin_frames, 0, 8192);
     return bad(c, section, name, "unknown key");
 }
 

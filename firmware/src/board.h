@@ -41,6 +41,8 @@ struct hd_board {
     unsigned map_count;            /* = table channel count the board expects */
     unsigned channel_map[HD_MAX_CHANNELS]; /* exciter (table channel) -> ALSA channel */
     enum hd_pacing pacing;
+    bool rewind;                   /* start a trigger at once by rewinding the queued frames */
+    unsigned rewind_margin_frames; /* queued frames never rewound: the device may be reading them */
     /* [gpio] */
     char gpio_chip[64];            /* "" when the board has no GPIO triggers */
     unsigned lockout_ms;

@@ -117,8 +117,35 @@ void hd_engine_period(struct hd_engine *e, void *out, uint32_t frames)
     if (n_ids && e->current)
         hd_player_start(&e->player, e->current, ids, n_ids);
     hd_player_render(&e->player, out, frames);
-    e->frame += frames;
     publish(e);
+}
+
+void hd_engine_start_at(struct hd_engine *e, uint64_t frame, uint32_t rewind_window)
+{
+    hd_player_set_timeline(&e->player, frame, rewind_window);
+}
+
+uint64_t hd_engine_frame(const struct hd_engine *e)
+{
+    return e->player.frame;
+}
+
+uint64_t hd_engine_rewindable(const struct hd_engine *e)
+{
+    return hd_player_rewindable(&e->player);
+}
+
+void hd_engine_rewind(struct hd_engine *e, uint64_t frames)
+{
+    uint64_t n = hd_player_rewind(&e->player, frames);
+    atomic_fetch_add_explicit(&e->stats.rewinds, 1, memory_order_relaxed);
+    atomic_fetch_add_explicit(&e->stats.rewound_frames, n, memory_order_relaxed);
+}
+
+int hd_engine_pending(struct hd_engine *e)
+{
+    return atomic_load_explicit(&e->ring.tail, memory_order_acquire) !=
+           atomic_load_explicit(&e->ring.head, memory_order_relaxed);
 }
 
 void hd_engine_written(struct hd_engine *e, uint64_t now_ns)

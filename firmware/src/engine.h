@@ -5,7 +5,12 @@
  *   audio thread   --retired (program)--> main thread  (frees it)
  * A reloaded table takes effect at a period boundary for new voices; voices
  * already playing finish from the old table, which the audio thread then
- * hands back to be freed outside the real-time path. */
+ * hands back to be freed outside the real-time path.
+ *
+ * A trigger is started either at the next period (hd_engine_period drains the
+ * ring before it renders) or at once: the audio thread rewinds the device's
+ * queued frames, hd_engine_rewind moves the render position back by as many,
+ * and hd_engine_period renders them again with the new voice in them. */
 #ifndef HD_ENGINE_H
 #define HD_ENGINE_H
 
@@ -20,6 +25,8 @@
 struct hd_engine_stats {
     _Atomic uint64_t voices_started, voices_stolen, clipped_samples, unknown_foci, dropped_foci;
     _Atomic uint64_t xruns, write_errors, periods;
+    _Atomic uint64_t rewinds, rewound_frames;  /* triggers started at once, and the frames rendered again */
+    _Atomic int rewind_error;                  /* the ALSA error that disabled rewinding, 0 if none */
 };
 
 struct hd_engine {
@@ -28,7 +35,6 @@ struct hd_engine {
     _Atomic(struct hd_program *) next;
     _Atomic(struct hd_program *) retired;
     struct hd_program *current, *previous;   /* audio thread only */
-    uint64_t frame;                          /* device frames written so far, pre-fill included */
     /* events started in the period being written, for the latency record */
     uint32_t started_count;
     uint64_t started_t_ns[HD_RING_SIZE];
@@ -46,6 +52,20 @@ void hd_engine_free(struct hd_engine *e);
 void hd_engine_period(struct hd_engine *e, void *out, uint32_t frames);
 /* Audio thread: the period just rendered was handed to ALSA at now_ns. */
 void hd_engine_written(struct hd_engine *e, uint64_t now_ns);
+
+/* Before the first period: the device has `frame` frames already (the
+ * pre-fill), and rewinds may later go back up to `rewind_window` frames
+ * (0 in scripted mode: no rewinds). */
+void hd_engine_start_at(struct hd_engine *e, uint64_t frame, uint32_t rewind_window);
+/* Device frame the next render starts at (frames handed to ALSA so far). */
+uint64_t hd_engine_frame(const struct hd_engine *e);
+/* Audio thread: frames the engine can render again (the most a rewind may go back). */
+uint64_t hd_engine_rewindable(const struct hd_engine *e);
+/* Audio thread: the device went back `frames` frames (<= hd_engine_rewindable):
+ * the next renders produce them again, with the voices started since. */
+void hd_engine_rewind(struct hd_engine *e, uint64_t frames);
+/* Audio thread: whether a trigger waits in the ring. */
+int hd_engine_pending(struct hd_engine *e);
 
 /* Main thread: offer a new program. Returns 0, or -EBUSY while a previous
  * reload is still being taken over (try again later). */

@@ -2,8 +2,10 @@
  *
  * Threads: main (signals: SIGHUP reload, SIGTERM/SIGINT stop; frees retired
  * tables; logs counters), trigger (GPIO lines and/or the host trigger FIFO,
- * pushes events into the lock-free ring), audio (SCHED_FIFO when allowed:
- * renders and writes one period at a time; never allocates, locks or logs).
+ * pushes events into the lock-free ring and wakes the audio thread through an
+ * eventfd), audio (SCHED_FIFO when allowed: renders and writes one period at
+ * a time, and on a trigger rewinds the queued frames to start it at once;
+ * never allocates, locks or logs).
  * --script runs the same engine unpaced in one thread for sample-exact tests.
  */
 #define _GNU_SOURCE
@@ -27,6 +29,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/eventfd.h>
+#include <sys/timerfd.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -48,6 +52,10 @@ struct daemon {
     int have_gpio;
     int host_fd;              /* host trigger source, -1 if none */
     int stop_pipe[2];
+    int trigger_efd;          /* trigger thread -> audio thread: "an event is in the ring" */
+    int timer_fd;             /* clock pacing: the emulated device's period deadline */
+    struct pollfd alsa_pfd[HD_AUDIO_MAX_PFDS]; /* device pacing */
+    int alsa_pfd_count;
     atomic_int running;       /* audio loop */
     atomic_int accepting;     /* trigger thread pushes events */
     atomic_int audio_failed;
@@ -78,6 +86,16 @@ static int check_table(const char *path)
 
 /* ---- trigger thread ---- */
 
+/* Hand an event to the audio thread: the lock-free ring, then a wake-up
+ * (an eventfd the audio thread polls next to its period clock). */
+static void push_trigger(struct daemon *d, const struct hd_event *ev)
+{
+    if (!atomic_load(&d->accepting) || !hd_spsc_push(&d->engine.ring, ev))
+        return;
+    if (d->trigger_efd >= 0 && eventfd_write(d->trigger_efd, 1) != 0)
+        hd_log(LOG_WARNING, "trigger wake-up: %s", strerror(errno));
+}
+
 struct line_reader {
     char buf[512];
     size_t len;
@@ -101,8 +119,7 @@ static void host_line(struct daemon *d, const char *line, unsigned line_no)
         return;
     }
     ev.t_ns = hd_now_ns();
-    if (atomic_load(&d->accepting))
-        hd_spsc_push(&d->engine.ring, &ev);
+    push_trigger(d, &ev);
 }
 
 /* Returns 0 on EOF, 1 if more may come. */
@@ -179,25 +196,19 @@ static void *trigger_thread(void *arg)
                 continue;
             }
             read_errors[i] = 0;
-            if (rc == 1 && atomic_load(&d->accepting))
-                hd_spsc_push(&d->engine.ring, &ev);
+            if (rc == 1)
+                push_trigger(d, &ev);
         }
     }
 }
 
 /* ---- audio thread ---- */
 
-static void add_ns(struct timespec *t, uint64_t ns)
-{
-    t->tv_nsec += (long)(ns % 1000000000u);
-    t->tv_sec += (time_t)(ns / 1000000000u) + t->tv_nsec / 1000000000;
-    t->tv_nsec %= 1000000000;
-}
-
 static void publish_audio_counters(struct daemon *d)
 {
     atomic_store_explicit(&d->engine.stats.xruns, d->audio.xruns + d->audio.suspends, memory_order_relaxed);
     atomic_store_explicit(&d->engine.stats.write_errors, d->audio.errors, memory_order_relaxed);
+    atomic_store_explicit(&d->engine.stats.rewind_error, d->audio.rewind_error, memory_order_relaxed);
 }
 
 /* One period: render, hand to ALSA, note the latency. */
@@ -212,18 +223,86 @@ static int audio_step(struct daemon *d)
     return rc;
 }
 
+/* A trigger woke the audio thread: answer it at once. The queued frames the
+ * device has not started to read (all but rewind_margin of them) are taken
+ * back and rendered again, the new voice starting at the first of them, and
+ * written in their place. Nothing to rewind (or a PCM that cannot): the
+ * trigger waits in the ring for the next period, as without rewinding. */
+static void trigger_step(struct daemon *d)
+{
+    struct hd_engine *e = &d->engine;
+    if (!d->audio.rewind || !hd_engine_pending(e))
+        return;
+    uint64_t limit = hd_engine_rewindable(e);
+    snd_pcm_uframes_t n = hd_audio_rewind(&d->audio, limit < d->audio.buffer_frames ? limit : d->audio.buffer_frames,
+                                          hd_now_ns());
+    if (n > 0) {
+        hd_engine_rewind(e, n);
+        while (n > 0) {
+            uint32_t chunk = n < d->audio.period_frames ? (uint32_t)n : (uint32_t)d->audio.period_frames;
+            hd_engine_period(e, d->render_buf, chunk);
+            int rc = hd_audio_write(&d->audio, d->render_buf, chunk);
+            hd_engine_written(e, hd_now_ns());
+            if (rc < 0)
+                break; /* counted; the period clock carries on */
+            n -= chunk;
+        }
+    }
+    publish_audio_counters(d);
+}
+
+static void drain_fd(int fd)
+{
+    uint64_t v;
+    if (read(fd, &v, sizeof v) < 0) {
+        /* EAGAIN: nothing to drain; nothing else can fail on an eventfd/timerfd */
+    }
+}
+
 static void *audio_thread(void *arg)
 {
     struct daemon *d = arg;
     const uint64_t period_ns = (uint64_t)d->audio.period_frames * 1000000000u / d->audio.rate_hz;
-    struct timespec deadline;
-    clock_gettime(CLOCK_MONOTONIC, &deadline);
+    const int clock = d->board.pacing == HD_PACE_CLOCK;
+    struct pollfd pfd[2 + HD_AUDIO_MAX_PFDS];
+    nfds_t nfds = 0;
+    pfd[nfds++] = (struct pollfd){.fd = d->trigger_efd, .events = POLLIN};
+    if (clock) {
+        pfd[nfds++] = (struct pollfd){.fd = d->timer_fd, .events = POLLIN};
+    } else {
+        for (int i = 0; i < d->alsa_pfd_count; i++)
+            pfd[nfds++] = d->alsa_pfd[i];
+    }
     int failures = 0;
     while (atomic_load_explicit(&d->running, memory_order_relaxed)) {
-        /* Render as late as possible: once the device has room (device
-         * pacing) or at the period deadline (clock pacing, below). */
-        if (d->board.pacing == HD_PACE_DEVICE && hd_audio_wait(&d->audio) == 0)
-            continue; /* 100 ms without room: re-check running */
+        /* Sleep until a trigger arrives or a period is due: the device has
+         * room (device pacing), or the emulated device has played a period
+         * (clock pacing: the file/null plugins never block). A period is
+         * rendered just before it is written, with the freshest triggers. */
+        uint64_t due_ns = 0;
+        if (clock) {
+            due_ns = hd_audio_clock_due_ns(&d->audio);
+            struct itimerspec its = {.it_value = {(time_t)(due_ns / 1000000000u), (long)(due_ns % 1000000000u)}};
+            timerfd_settime(d->timer_fd, TFD_TIMER_ABSTIME, &its, NULL);
+        }
+        for (nfds_t i = 0; i < nfds; i++)
+            pfd[i].revents = 0;
+        if (poll(pfd, nfds, 100) < 0)
+            continue; /* EINTR; re-check running */
+        if (pfd[0].revents & POLLIN) {
+            drain_fd(d->trigger_efd);
+            trigger_step(d);
+        }
+        int due;
+        if (clock) {
+            if (pfd[1].revents & POLLIN)
+                drain_fd(d->timer_fd);
+            due = hd_now_ns() >= due_ns;
+        } else {
+            due = hd_audio_poll_ready(&d->audio, pfd + 1, d->alsa_pfd_count) != 0; /* room, or an xrun to recover */
+        }
+        if (!due)
+            continue;
         if (audio_step(d) < 0) {
             /* Counted in write_errors and logged by the main thread; back off
              * one period so a dead device does not spin the CPU. */
@@ -234,11 +313,6 @@ static void *audio_thread(void *arg)
             continue;
         }
         failures = 0;
-        if (d->board.pacing == HD_PACE_CLOCK) {
-            /* The file/null plugins never block: pace one period per period time. */
-            add_ns(&deadline, period_ns);
-            clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, NULL);
-        }
     }
     return NULL;
 }
@@ -279,6 +353,7 @@ static void reload(struct daemon *d)
 
 struct counters {
     uint64_t xruns, write_errors, stolen, clipped, unknown, dropped_foci, dropped_events;
+    int rewind_error;
 };
 
 static void log_counters(struct daemon *d, struct counters *last)
@@ -292,7 +367,11 @@ static void log_counters(struct daemon *d, struct counters *last)
         .unknown = atomic_load(&s->unknown_foci),
         .dropped_foci = atomic_load(&s->dropped_foci),
         .dropped_events = atomic_load(&d->engine.ring.dropped),
+        .rewind_error = atomic_load(&s->rewind_error),
     };
+    if (now.rewind_error && !last->rewind_error) /* once: rewinding stays off */
+        hd_log(LOG_WARNING, "ALSA rewind failed (%s): triggers now start at the next period boundary",
+               snd_strerror(now.rewind_error));
     if (now.xruns != last->xruns)
         hd_log(LOG_WARNING, "xrun recovered (%llu in total)", (unsigned long long)now.xruns);
     if (now.write_errors != last->write_errors)
@@ -353,6 +432,8 @@ static void latency_report(struct daemon *d)
             rss_kib("VmHWM:"), rss_kib("RssAnon:"), rss_kib("RssFile:"));
     fprintf(f, "table_bytes %zu\n", d->engine.current ? d->engine.current->table.size : 0);
     fprintf(f, "xruns %llu\n", (unsigned long long)atomic_load(&d->engine.stats.xruns));
+    fprintf(f, "rewinds %llu\nrewound_frames %llu\n", (unsigned long long)atomic_load(&d->engine.stats.rewinds),
+            (unsigned long long)atomic_load(&d->engine.stats.rewound_frames));
     if (f != stdout)
         fclose(f);
 }
@@ -425,11 +506,11 @@ static int run_script(struct daemon *d, struct script s)
         free(s.events);
         return 1;
     }
-    d->engine.frame = (uint64_t)primed;
+    hd_engine_start_at(&d->engine, (uint64_t)primed, 0); /* unpaced: no rewinds, sample-exact starts */
     size_t next = 0;
     uint64_t tail = d->opt.tail_frames, rc = 0;
     while (next < s.count || hd_player_active(&d->engine.player) > 0 || tail > 0) {
-        while (next < s.count && (uint64_t)s.events[next].frame <= d->engine.frame) {
+        while (next < s.count && (uint64_t)s.events[next].frame <= hd_engine_frame(&d->engine)) {
             s.events[next].t_ns = hd_now_ns();
             hd_spsc_push(&d->engine.ring, &s.events[next++]);
         }
@@ -442,12 +523,12 @@ static int run_script(struct daemon *d, struct script s)
             /* Unpaced runs feed files and tests: the first failure ends the run. */
             hd_log(LOG_ERR, "writing to ALSA device '%s' failed at frame %llu: %s (host-sim: does the WAV's folder exist?)",
                    d->opt.alsa_device ? d->opt.alsa_device : d->board.alsa_device,
-                   (unsigned long long)d->engine.frame, snd_strerror(err));
+                   (unsigned long long)hd_engine_frame(&d->engine), snd_strerror(err));
             rc = 1;
             break;
         }
     }
-    hd_log(LOG_INFO, "script done: %llu frames written, %llu voices", (unsigned long long)d->engine.frame,
+    hd_log(LOG_INFO, "script done: %llu frames written, %llu voices", (unsigned long long)hd_engine_frame(&d->engine),
            (unsigned long long)atomic_load(&d->engine.stats.voices_started));
     free(s.events);
     return (int)rc;
@@ -562,7 +643,24 @@ static int run_live(struct daemon *d)
         hd_log(LOG_ERR, "priming ALSA: %s", snd_strerror((int)primed));
         return 1;
     }
-    d->engine.frame = (uint64_t)primed;
+    /* Does the PCM rewind? Asked once here, outside the real-time path, so
+     * the answer is logged once; a later failure is logged by log_counters. */
+    if (d->audio.rewind) {
+        snd_pcm_sframes_t can = hd_audio_rewind_probe(&d->audio);
+        if (can > 0)
+            hd_log(LOG_INFO, "triggers start at once: queued frames rewound, %lu kept (%.3f ms) for the device%s",
+                   (unsigned long)d->audio.rewind_margin, 1e3 * (double)d->audio.rewind_margin / d->audio.rate_hz,
+                   d->audio.batch ? " (batch device: at least one period)" : "");
+        else
+            hd_log(LOG_WARNING, "ALSA device cannot rewind (%s): triggers start at the next period boundary",
+                   can < 0 ? snd_strerror((int)can) : "no rewindable frames with a full buffer");
+        if (d->audio.rewind && d->audio.rewind_margin >= d->audio.buffer_frames)
+            hd_log(LOG_WARNING, "[alsa] rewind_margin_frames %lu >= the %lu-frame buffer: nothing is ever rewound",
+                   (unsigned long)d->audio.rewind_margin, (unsigned long)d->audio.buffer_frames);
+    } else {
+        hd_log(LOG_INFO, "[alsa] rewind = false: triggers start at the next period boundary");
+    }
+    hd_engine_start_at(&d->engine, (uint64_t)primed, d->audio.rewind ? (uint32_t)d->audio.buffer_frames : 0);
     atomic_store(&d->running, 1);
     atomic_store(&d->accepting, 1);
     int prio = d->opt.rt_priority >= 0 ? d->opt.rt_priority : d->board.rt_priority;
@@ -630,6 +728,7 @@ int main(int argc, char **argv)
     }
     d.host_fd = -1;
     d.stop_pipe[0] = d.stop_pipe[1] = -1;
+    d.trigger_efd = d.timer_fd = -1;
     if ((rc = hd_engine_init(&d.engine, &d.board, prog, d.opt.latency_report != NULL)) != 0) {
         hd_log(LOG_ERR, "out of memory");
         hd_program_free(prog);
@@ -651,6 +750,8 @@ int main(int argc, char **argv)
         goto out_audio;
     }
     d.buffer_latency_s = (double)d.audio.buffer_frames / d.audio.rate_hz;
+    hd_audio_configure(&d.audio, !d.opt.script && d.board.rewind, d.board.rewind_margin_frames,
+                       d.board.pacing == HD_PACE_CLOCK);
     d.render_buf = calloc(d.audio.period_frames, d.audio.frame_bytes);
     if (!d.render_buf)
         goto out_audio;
@@ -675,6 +776,21 @@ int main(int argc, char **argv)
     }
     if (open_host_triggers(&d) != 0 || pipe2(d.stop_pipe, O_CLOEXEC) != 0)
         goto out_gpio;
+    d.trigger_efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    if (d.trigger_efd < 0) {
+        hd_log(LOG_ERR, "eventfd: %s", strerror(errno));
+        goto out_gpio;
+    }
+    if (d.board.pacing == HD_PACE_CLOCK) {
+        d.timer_fd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+        if (d.timer_fd < 0) {
+            hd_log(LOG_ERR, "timerfd: %s", strerror(errno));
+            goto out_gpio;
+        }
+    } else if ((d.alsa_pfd_count = hd_audio_poll_fds(&d.audio, d.alsa_pfd, HD_AUDIO_MAX_PFDS)) < 0) {
+        hd_log(LOG_ERR, "ALSA poll descriptors: %s", snd_strerror(d.alsa_pfd_count));
+        goto out_gpio;
+    }
     if (d.board.mlock)
         hd_rt_lock_memory();
     status = run_live(&d);
@@ -687,6 +803,10 @@ out_gpio:
     for (int i = 0; i < 2; i++)
         if (d.stop_pipe[i] >= 0)
             close(d.stop_pipe[i]);
+    if (d.trigger_efd >= 0)
+        close(d.trigger_efd);
+    if (d.timer_fd >= 0)
+        close(d.timer_fd);
 out_report:
     latency_report(&d);
 out_audio:

@@ -25,25 +25,44 @@ void hd_player_free(struct hd_player *pl)
     pl->acc = NULL;
 }
 
-static struct hd_voice *free_slot(struct hd_player *pl)
+static uint64_t voice_end(const struct hd_voice *v)
 {
-    struct hd_voice *oldest = &pl->voices[0];
-    for (unsigned v = 0; v < HD_MAX_VOICES; v++) {
-        if (!pl->voices[v].program)
-            return &pl->voices[v];
-        if (pl->voices[v].position > oldest->position)
-            oldest = &pl->voices[v];
+    return v->start + v->program->samples;
+}
+
+/* A slot for a voice starting at pl->frame. Free: unused, or its voice lies
+ * wholly before `committed`. Else, without loss, the voice that ended first
+ * (rendered to its end, its tail only still within a rewind's reach). Else
+ * the oldest playing voice is cut (stolen). Reusing a slot whose voice a
+ * rewind could still need moves `committed` up to the start of the new voice,
+ * so no later rewind re-renders frames without it. */
+static struct hd_voice *take_slot(struct hd_player *pl)
+{
+    struct hd_voice *ended = NULL, *oldest = NULL;
+    for (unsigned i = 0; i < HD_MAX_VOICES; i++) {
+        struct hd_voice *v = &pl->voices[i];
+        if (!v->program || voice_end(v) <= pl->committed)
+            return v;
+        if (voice_end(v) <= pl->frame) {
+            if (!ended || voice_end(v) < voice_end(ended))
+                ended = v;
+        } else if (!oldest || v->start < oldest->start) {
+            oldest = v;
+        }
     }
-    pl->stats.voices_stolen++;
-    return oldest;
+    struct hd_voice *v = ended ? ended : oldest;
+    if (!ended)
+        pl->stats.voices_stolen++;
+    pl->committed = pl->frame;
+    return v;
 }
 
 void hd_player_start_mix(struct hd_player *pl, const struct hd_program *p, const struct hd_mix *m)
 {
-    struct hd_voice *v = free_slot(pl);
+    struct hd_voice *v = take_slot(pl);
     v->program = p;
     v->mix = *m;
-    v->position = 0;
+    v->start = pl->frame;
     pl->stats.voices_started++;
 }
 
@@ -75,19 +94,18 @@ int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint
     return 1;
 }
 
-static void render_voice(struct hd_player *pl, struct hd_voice *v, uint32_t frames)
+/* The voice's samples for device frames [lo, hi), added into the scratch rows from `row0`. */
+static void render_voice(struct hd_player *pl, const struct hd_voice *v, uint64_t lo, uint64_t hi, int64_t *row0)
 {
     const struct hd_program *p = v->program;
     const uint32_t C = p->channel_count, K = v->mix.count, chs = pl->channels;
-    uint32_t n = p->samples - v->position;
-    if (n > frames)
-        n = frames;
+    const uint32_t n = (uint32_t)(hi - lo), position = (uint32_t)(lo - v->start);
     const int16_t *sig[HD_MAX_VOICE_FOCI];
     for (uint32_t k = 0; k < K; k++)
-        sig[k] = hd_program_signal(p, v->mix.index[k]) + (size_t)v->position * C;
+        sig[k] = hd_program_signal(p, v->mix.index[k]) + (size_t)position * C;
     const int64_t g = v->mix.gain_q30;
     for (uint32_t i = 0; i < n; i++) {
-        int64_t *row = pl->acc + (size_t)i * chs;
+        int64_t *row = row0 + (size_t)i * chs;
         for (uint32_t c = 0; c < C; c++) {
             int32_t s = 0; /* exact: |sum| <= 32 * 32768 */
             for (uint32_t k = 0; k < K; k++)
@@ -95,27 +113,59 @@ static void render_voice(struct hd_player *pl, struct hd_voice *v, uint32_t fram
             row[pl->channel_map[c]] += (int64_t)s * g;
         }
     }
-    v->position += n;
-    if (v->position >= p->samples)
-        v->program = NULL;
 }
 
 void hd_player_render(struct hd_player *pl, void *out, uint32_t frames)
 {
     const uint32_t n = frames * pl->channels;
+    const uint64_t f0 = pl->frame, f1 = f0 + frames;
     memset(pl->acc, 0, (size_t)n * sizeof *pl->acc);
-    for (unsigned v = 0; v < HD_MAX_VOICES; v++)
-        if (pl->voices[v].program)
-            render_voice(pl, &pl->voices[v], frames);
+    for (unsigned i = 0; i < HD_MAX_VOICES; i++) {
+        const struct hd_voice *v = &pl->voices[i];
+        if (!v->program)
+            continue;
+        uint64_t lo = v->start > f0 ? v->start : f0, end = voice_end(v), hi = end < f1 ? end : f1;
+        if (lo < hi)
+            render_voice(pl, v, lo, hi, pl->acc + (size_t)(lo - f0) * pl->channels);
+    }
     pl->stats.clipped_samples += pl->format == HD_FMT_S16_LE ? hd_mixer_to_s16(pl->acc, out, n)
                                                              : hd_mixer_to_s32(pl->acc, out, n);
+    pl->frame = f1;
+    if (f1 > pl->rewind_window && f1 - pl->rewind_window > pl->committed)
+        pl->committed = f1 - pl->rewind_window;
+    for (unsigned i = 0; i < HD_MAX_VOICES; i++)
+        if (pl->voices[i].program && voice_end(&pl->voices[i]) <= pl->committed)
+            pl->voices[i].program = NULL;
+}
+
+void hd_player_set_timeline(struct hd_player *pl, uint64_t frame, uint32_t window)
+{
+    /* Frames before `frame` (the pre-fill) are silence, which is what the
+     * player renders without voices: a rewind may reach into them too. */
+    pl->frame = frame;
+    pl->committed = frame > window ? frame - window : 0;
+    pl->rewind_window = window;
+}
+
+uint64_t hd_player_rewindable(const struct hd_player *pl)
+{
+    return pl->frame - pl->committed;
+}
+
+uint64_t hd_player_rewind(struct hd_player *pl, uint64_t frames)
+{
+    uint64_t n = hd_player_rewindable(pl);
+    if (frames < n)
+        n = frames;
+    pl->frame -= n;
+    return n;
 }
 
 uint32_t hd_player_active(const struct hd_player *pl)
 {
     uint32_t n = 0;
     for (unsigned v = 0; v < HD_MAX_VOICES; v++)
-        n += pl->voices[v].program != NULL;
+        n += pl->voices[v].program && voice_end(&pl->voices[v]) > pl->frame;
     return n;
 }
 

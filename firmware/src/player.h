@@ -1,14 +1,21 @@
 /* player.h - the per-period render: which voices play and how triggers start them.
  *
  * Policy for a trigger during playback: ADD. Every trigger starts a new voice
- * at the next period boundary; voices already playing continue to their end
+ * at the frame the player renders next (the next period boundary, or the
+ * frame a rewind went back to); voices already playing continue to their end
  * untouched (cutting a voice would click, and its focus would be lost).
- * Triggers that arrive before the same period boundary are merged into ONE
- * voice whose foci are the union of theirs (several fingers at once), with
- * one energy-normalized gain for the union. Overlapping voices add; their
- * sum saturates (counted in clipped_samples) instead of wrapping around.
+ * Triggers that arrive before the same start are merged into ONE voice whose
+ * foci are the union of theirs (several fingers at once), with one
+ * energy-normalized gain for the union. Overlapping voices add; their sum
+ * saturates (counted in clipped_samples) instead of wrapping around.
  * At most HD_MAX_VOICES play at once: a new voice takes the place of the
  * oldest one (counted in voices_stolen), so the newest touch always answers.
+ *
+ * Voices are placed on the device timeline (absolute frames), so rendering
+ * is a pure function of the voices and the frame range: after a rewind the
+ * player renders the same frames again, identical except for the voices
+ * started since. A voice's slot is kept until no rewind can reach it
+ * (`committed`), so a rewind never loses the tail of a voice that ended.
  */
 #ifndef HD_PLAYER_H
 #define HD_PLAYER_H
@@ -22,7 +29,7 @@
 struct hd_voice {
     const struct hd_program *program;   /* NULL: slot free */
     struct hd_mix mix;
-    uint32_t position;                  /* next sample of the signals to play */
+    uint64_t start;                     /* device frame of its first sample */
 };
 
 struct hd_player_stats {
@@ -38,6 +45,9 @@ struct hd_player {
     uint32_t channel_map[HD_MAX_CHANNELS];
     double gain_limit;
     int64_t *acc;                       /* [frames_max][channels], allocated once at init */
+    uint64_t frame;                     /* next device frame render writes */
+    uint64_t committed;                 /* frames before this are never rendered again */
+    uint32_t rewind_window;             /* how far behind `frame` a rewind may go (0: never) */
     struct hd_player_stats stats;
 };
 
@@ -52,10 +62,24 @@ int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint
 /* Start a voice from a precomputed mix (tests, benchmarks). */
 void hd_player_start_mix(struct hd_player *pl, const struct hd_program *p, const struct hd_mix *m);
 
-/* Render `frames` (<= frames_max) interleaved frames in the device format into out. */
+/* Render `frames` (<= frames_max) interleaved frames in the device format into
+ * out: device frames [frame, frame + frames); then frame += frames. */
 void hd_player_render(struct hd_player *pl, void *out, uint32_t frames);
 
-/* Number of voices playing; and whether any plays from program p. */
+/* Place the timeline: the next frame to render is `frame` (the frames before
+ * it are silence), and rewinds may go back at most `window` frames behind the
+ * render position. */
+void hd_player_set_timeline(struct hd_player *pl, uint64_t frame, uint32_t window);
+
+/* Frames a rewind may go back now: frame - committed. */
+uint64_t hd_player_rewindable(const struct hd_player *pl);
+
+/* Go back `frames` frames (at most hd_player_rewindable) so they are
+ * rendered again. Returns the frames gone back. */
+uint64_t hd_player_rewind(struct hd_player *pl, uint64_t frames);
+
+/* Number of voices with frames still to render; and whether any voice a
+ * render may still need plays from program p. */
 uint32_t hd_player_active(const struct hd_player *pl);
 int hd_player_uses(const struct hd_player *pl, const struct hd_program *p);
 

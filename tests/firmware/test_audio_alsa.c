@@ -1,6 +1,9 @@
 /* ALSA shim with -Wl,--wrap mocks: -EPIPE -> recover -> re-prime -> the period
  * is written; -ESTRPIPE likewise; a failed recovery is reported, not fatal;
- * partial writes; an open failure names the device and the board file. */
+ * partial writes; an open failure names the device and the board file.
+ * Rewinding a trigger in: the margin and the caller's limit are kept;
+ * rewindable 0, negative (transient or not), partial and excess rewinds;
+ * the clock-paced emulated device; the probe after the pre-fill. */
 #define _DEFAULT_SOURCE
 #include "audio_alsa.h"
 
@@ -24,6 +27,9 @@ static int ncalls;
 static long write_script[MAXCALLS]; /* results of successive writei calls; 0 = accept all */
 static int nwrites;
 static int recover_result;
+static long rewindable_result, rewind_result, forward_result; /* rewind_result 0: as asked */
+static int rewindable_calls, rewind_calls, forward_calls;
+static unsigned long rewind_asked, forward_asked;
 
 snd_pcm_sframes_t __wrap_snd_pcm_writei(snd_pcm_t *pcm, const void *buf, snd_pcm_uframes_t size)
 {
@@ -45,6 +51,26 @@ int __wrap_snd_pcm_start(snd_pcm_t *pcm)
     (void)pcm;
     calls[ncalls++] = (struct call){'s', NULL, 0};
     return -EBADFD; /* already running (start threshold reached): fine */
+}
+snd_pcm_sframes_t __wrap_snd_pcm_rewindable(snd_pcm_t *pcm)
+{
+    (void)pcm;
+    rewindable_calls++;
+    return rewindable_result;
+}
+snd_pcm_sframes_t __wrap_snd_pcm_rewind(snd_pcm_t *pcm, snd_pcm_uframes_t frames)
+{
+    (void)pcm;
+    rewind_calls++;
+    rewind_asked = frames;
+    return rewind_result == 0 ? (snd_pcm_sframes_t)frames : rewind_result;
+}
+snd_pcm_sframes_t __wrap_snd_pcm_forward(snd_pcm_t *pcm, snd_pcm_uframes_t frames)
+{
+    (void)pcm;
+    forward_calls++;
+    forward_asked = frames;
+    return forward_result == 0 ? (snd_pcm_sframes_t)frames : forward_result;
 }
 int __wrap_snd_pcm_open(snd_pcm_t **pcm, const char *name, snd_pcm_stream_t stream, int mode)
 {
@@ -73,7 +99,170 @@ static int reset(void **state)
     memset(write_script, 0, sizeof write_script);
     ncalls = nwrites = 0;
     recover_result = 0;
+    rewindable_result = rewind_result = forward_result = 0;
+    rewindable_calls = rewind_calls = forward_calls = 0;
+    rewind_asked = forward_asked = 0;
     return 0;
+}
+
+/* A device-paced PCM with a 512-frame buffer, 32 frames kept for the device. */
+static struct hd_audio fake_rewinding(void)
+{
+    struct hd_audio a = fake();
+    a.period_frames = 256;
+    a.buffer_frames = 512;
+    hd_audio_configure(&a, 1, 32, 0);
+    a.written = 10000;
+    return a;
+}
+
+static void rewind_keeps_margin_and_limit(void **state)
+{
+    (void)state;
+    struct hd_audio a = fake_rewinding();
+    rewindable_result = 300; /* frames queued that the device has not read */
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 268);
+    assert_int_equal(rewind_asked, 268);
+    assert_int_equal(a.written, 10000 - 268); /* the caller writes 268 frames again */
+    /* The caller can render at most 100 frames again: no more are taken. */
+    assert_int_equal(hd_audio_rewind(&a, 100, 0), 100);
+    assert_int_equal(rewind_asked, 100);
+    assert_int_equal(a.written, 10000 - 368);
+    assert_true(a.rewind);
+    assert_int_equal(forward_calls, 0);
+    free(a.silence);
+}
+
+static void nothing_rewindable_rewinds_nothing(void **state)
+{
+    (void)state;
+    struct hd_audio a = fake_rewinding();
+    rewindable_result = 0;
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 0);
+    rewindable_result = 32; /* only the margin is queued */
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 0);
+    rewindable_result = 300;
+    assert_int_equal(hd_audio_rewind(&a, 0, 0), 0); /* the caller cannot render anything again */
+    assert_int_equal(rewind_calls, 0);
+    assert_int_equal(a.written, 10000);
+    assert_true(a.rewind); /* still on: the next trigger may find frames to rewind */
+    assert_int_equal(a.rewind_error, 0);
+    /* Off by the board: the PCM is not even asked. */
+    hd_audio_configure(&a, 0, 32, 0);
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 0);
+    assert_int_equal(rewindable_calls, 3);
+    /* A batch device may be reading anywhere in the current period: a period of margin at least. */
+    a.batch = 1;
+    hd_audio_configure(&a, 1, 32, 0);
+    assert_int_equal(a.rewind_margin, 256);
+    rewindable_result = 300;
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 300 - 256);
+    hd_audio_configure(&a, 1, 400, 0);
+    assert_int_equal(a.rewind_margin, 400);
+    free(a.silence);
+}
+
+static void rewindable_errors(void **state)
+{
+    (void)state;
+    struct hd_audio a = fake_rewinding();
+    /* An xrun or suspend: nothing this time, the next write recovers it. */
+    rewindable_result = -EPIPE;
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 0);
+    rewindable_result = -ESTRPIPE;
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 0);
+    assert_true(a.rewind);
+    assert_int_equal(a.rewind_error, 0);
+    /* A PCM that does not support it: off for good, the error kept for the log. */
+    rewindable_result = -ENOSYS;
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 0);
+    assert_false(a.rewind);
+    assert_int_equal(a.rewind_error, -ENOSYS);
+    rewindable_result = 300;
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 0);
+    assert_int_equal(rewindable_calls, 3); /* not asked again */
+    assert_int_equal(rewind_calls, 0);
+    assert_int_equal(a.written, 10000);
+    free(a.silence);
+}
+
+static void partial_and_failed_rewinds(void **state)
+{
+    (void)state;
+    struct hd_audio a = fake_rewinding();
+    rewindable_result = 300;
+    rewind_result = 20; /* went back 20 of the 268 asked: write 20 again */
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 20);
+    assert_int_equal(rewind_asked, 268);
+    assert_int_equal(a.written, 10000 - 20);
+    /* More than asked (a plugin bug): the excess is forwarded again. */
+    rewind_result = 300;
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 268);
+    assert_int_equal(forward_calls, 1);
+    assert_int_equal(forward_asked, 32);
+    assert_int_equal(a.written, 10000 - 20 - 268);
+    /* The rewind itself hits an xrun: nothing rewound, still on. */
+    rewind_result = -EPIPE;
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 0);
+    assert_true(a.rewind);
+    /* ...or fails for good. */
+    rewind_result = -EBADFD;
+    assert_int_equal(hd_audio_rewind(&a, 1000, 0), 0);
+    assert_false(a.rewind);
+    assert_int_equal(a.rewind_error, -EBADFD);
+    assert_int_equal(a.written, 10000 - 20 - 268);
+    free(a.silence);
+}
+
+static void clock_paced_device_is_emulated(void **state)
+{
+    (void)state;
+    struct hd_audio a = fake();
+    a.period_frames = 64;
+    a.buffer_frames = 128;
+    a.rate_hz = 48000;
+    hd_audio_configure(&a, 1, 32, 1);
+    a.start_ns = 5000000000u;
+    a.written = 128 + 64; /* pre-fill and one period */
+    /* 1 ms after the start the device has played 48 frames: 144 are queued. */
+    const uint64_t t = a.start_ns + 1000000u;
+    assert_int_equal(hd_audio_clock_queued(&a, t), 144);
+    rewindable_result = 192; /* the file plugin holds everything written */
+    assert_int_equal(hd_audio_rewind(&a, 1000, t), 144 - 32);
+    assert_int_equal(a.written, 192 - 112);
+    /* Later than everything written (the writer fell behind): nothing queued. */
+    a.written = 192;
+    assert_int_equal(hd_audio_clock_queued(&a, a.start_ns + 10000000u), 0);
+    assert_int_equal(hd_audio_rewind(&a, 1000, a.start_ns + 10000000u), 0);
+    assert_int_equal(hd_audio_clock_queued(&a, a.start_ns - 1), 192);
+    /* The next period is due when the device has room for it: written + 64 -
+     * 128 = 128 frames played, 128 / 48000 s = 2666666.67 ns -> 2666667. */
+    assert_int_equal(hd_audio_clock_due_ns(&a) - a.start_ns, 2666667);
+    a.written = 128;
+    assert_int_equal(hd_audio_clock_due_ns(&a) - a.start_ns, 1333334);
+    a.written = 64; /* less than a buffer minus a period: due at once */
+    assert_int_equal(hd_audio_clock_due_ns(&a), a.start_ns);
+    free(a.silence);
+}
+
+static void probe_after_prefill(void **state)
+{
+    (void)state;
+    struct hd_audio a = fake_rewinding();
+    rewindable_result = 500;
+    assert_int_equal(hd_audio_rewind_probe(&a), 500);
+    assert_true(a.rewind);
+    rewindable_result = 0; /* a full buffer and nothing rewindable: this PCM cannot */
+    assert_int_equal(hd_audio_rewind_probe(&a), 0);
+    assert_false(a.rewind);
+    assert_int_equal(a.rewind_error, -ENOTSUP);
+    free(a.silence);
+    a = fake_rewinding();
+    rewindable_result = -EINVAL;
+    assert_int_equal(hd_audio_rewind_probe(&a), -EINVAL);
+    assert_false(a.rewind);
+    assert_int_equal(a.rewind_error, -EINVAL);
+    free(a.silence);
 }
 
 static void xrun_recovers_and_reprimes(void **state)
@@ -183,6 +372,12 @@ int main(void)
         cmocka_unit_test_setup(failed_recovery_is_reported, reset),
         cmocka_unit_test_setup(other_errors_and_partial_writes, reset),
         cmocka_unit_test_setup(open_failure_names_device_and_board, reset),
+        cmocka_unit_test_setup(rewind_keeps_margin_and_limit, reset),
+        cmocka_unit_test_setup(nothing_rewindable_rewinds_nothing, reset),
+        cmocka_unit_test_setup(rewindable_errors, reset),
+        cmocka_unit_test_setup(partial_and_failed_rewinds, reset),
+        cmocka_unit_test_setup(clock_paced_device_is_emulated, reset),
+        cmocka_unit_test_setup(probe_after_prefill, reset),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -20,6 +20,8 @@ static const char *full =
     "periods = 3\n"
     "channel_map = 9, 8,7,6,5,4,3,2\n"
     "pacing = clock\n"
+    "rewind = false\n"
+    "rewind_margin_frames = 48\n"
     "[gpio]\n"
     "chip = gpiochip4\n"
     "lockout_ms = 120\n"
@@ -59,6 +61,8 @@ static void every_key(void **state)
     for (unsigned i = 0; i < 8; i++)
         assert_int_equal(b.channel_map[i], 9 - i);
     assert_int_equal(b.pacing, HD_PACE_CLOCK);
+    assert_false(b.rewind);
+    assert_int_equal(b.rewind_margin_frames, 48);
     assert_string_equal(b.gpio_chip, "gpiochip4");
     assert_int_equal(b.lockout_ms, 120);
     assert_int_equal(b.line_count, 3);
@@ -98,6 +102,8 @@ static void defaults(void **state)
     for (unsigned i = 0; i < 8; i++)
         assert_int_equal(b.channel_map[i], i);
     assert_int_equal(b.pacing, HD_PACE_DEVICE);
+    assert_true(b.rewind);
+    assert_int_equal(b.rewind_margin_frames, 32);
     assert_int_equal(b.line_count, 0);
     assert_true(b.gain_limit == 1.0);
     assert_string_equal(b.table_path, "");
@@ -132,6 +138,9 @@ static const struct bad_case cases[] = {
     {"[alsa]\nchannel_map = 0,1,2,3,4,5,6,7,8\n", "[alsa] channel_map", 0},
     {"[alsa]\nchannels = 4\nchannel_map = 0,1,2,5\n", "[alsa] channel_map", 0},
     {"[alsa]\npacing = fast\n", "[alsa] pacing", 4},
+    {"[alsa]\nrewind = maybe\n", "[alsa] rewind", 4},
+    {"[alsa]\nrewind_margin_frames = 8193\n", "[alsa] rewind_margin_frames", 4},
+    {"[alsa]\nrewind_margin_frames = -1\n", "[alsa] rewind_margin_frames", 4},
     {"[alsa]\nconfig =\n", "[alsa] config", 4},
     {"[alsa]\nvolume = 3\n", "[alsa] volume", 4},
     {"!device =\n", "[alsa] device", 1},

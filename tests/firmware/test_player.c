@@ -1,7 +1,11 @@
 /* Player and engine: trigger during playback (ADD at the next period),
  * merging of triggers within one period, unknown foci, voice stealing,
  * table hand-over on reload, and a trigger storm with bounded memory
- * (no allocation at all on the real-time path). */
+ * (no allocation at all on the real-time path). Rewinds: the frames
+ * rendered again are the same plus the new voice (checked on a simulated
+ * device stream against a sum recomputed from the table), a voice that
+ * ended is rendered again when a rewind reaches back into it, a slot is
+ * not reused while a rewind could still need its voice. */
 #include "engine.h"
 #include "fw_fixture.h"
 
@@ -146,11 +150,12 @@ static void oldest_voice_is_stolen(void **state)
     }
     assert_int_equal(hd_player_active(&e.player), HD_MAX_VOICES);
     assert_int_equal(e.player.stats.voices_stolen, 1);
-    /* The oldest (started first, furthest along) went: the positions are now 1..8 periods. */
-    uint32_t maxpos = 0;
+    /* The oldest (started first, furthest along) went: the voices started at periods 1..8. */
+    uint64_t first = UINT64_MAX;
     for (unsigned i = 0; i < HD_MAX_VOICES; i++)
-        maxpos = e.player.voices[i].position > maxpos ? e.player.voices[i].position : maxpos;
-    assert_int_equal(maxpos, HD_MAX_VOICES * P);
+        first = e.player.voices[i].start < first ? e.player.voices[i].start : first;
+    assert_int_equal(first, P);
+    assert_int_equal(hd_engine_frame(&e) - first, HD_MAX_VOICES * P);
     hd_engine_free(&e);
     fw_table_free(&t);
 }
@@ -188,6 +193,153 @@ static void reload_hands_over_at_a_boundary(void **state)
     fw_table_free(&tb);
 }
 
+/* A device stream: frames land at their device frame; a rewind makes the
+ * next write overwrite the frames it went back over, as ALSA does. */
+#define DEV_FRAMES (16u * P)
+struct device {
+    int32_t frames[DEV_FRAMES * C];
+};
+
+static void dev_render(struct hd_engine *e, struct device *d, uint32_t frames)
+{
+    int32_t out[P * C];
+    uint64_t at = hd_engine_frame(e);
+    assert_true(at + frames <= DEV_FRAMES);
+    hd_engine_period(e, out, frames);
+    memcpy(d->frames + at * C, out, (size_t)frames * C * sizeof *out);
+}
+
+/* Expected: sum over voices (focus, start) of the table signal, in S32 (gain 1 each). */
+static void dev_expect(const struct device *d, const struct fw_table *t, uint32_t nvoices, const uint32_t *focus,
+                       const uint64_t *start, uint64_t upto)
+{
+    for (uint64_t f = 0; f < upto; f++)
+        for (uint32_t c = 0; c < C; c++) {
+            int32_t want = 0;
+            for (uint32_t v = 0; v < nvoices; v++)
+                if (f >= start[v] && f - start[v] < t->samples)
+                    want += fw_sample(t, focus[v], (uint32_t)(f - start[v]), c);
+            if (d->frames[f * C + c] != want * 65536)
+                fail_msg("frame %lu channel %u: %d, expected %d", (unsigned long)f, c, d->frames[f * C + c] / 65536,
+                         want);
+        }
+}
+
+static void rewind_starts_a_voice_at_once(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 2, 300, FW_RANDOM, 1000, 31);
+    struct hd_board b;
+    struct hd_program *p = program(&t, &b);
+    struct hd_engine e;
+    assert_int_equal(hd_engine_init(&e, &b, p, 1), 0);
+    static struct device d;
+    memset(&d, 0, sizeof d);
+    hd_engine_start_at(&e, 2 * P, 2 * P); /* pre-fill of 2 periods; rewinds reach 2 periods back */
+    assert_int_equal(hd_engine_rewindable(&e), 2 * P); /* the pre-fill is silence: rendered again as such */
+    /* A trigger right after the start: 24 frames of the pre-fill taken back, A at 2P - 24. */
+    push(&e, 1, &t.ids[0]);
+    hd_engine_rewind(&e, 24);
+    dev_render(&e, &d, 24);
+    hd_engine_written(&e, hd_now_ns());
+    dev_render(&e, &d, P);
+    dev_render(&e, &d, P);
+    dev_render(&e, &d, P); /* device frames up to 5P written */
+    assert_int_equal(hd_engine_rewindable(&e), 2 * P);
+    /* A trigger: the device went back 40 frames; B starts at 5P - 40, and
+     * those 40 frames are rendered again: A's part in them identical. */
+    push(&e, 1, &t.ids[1]);
+    hd_engine_rewind(&e, 40);
+    assert_int_equal(hd_engine_frame(&e), 5 * P - 40);
+    dev_render(&e, &d, 40);
+    hd_engine_written(&e, hd_now_ns());
+    assert_int_equal(atomic_load(&e.latency_count), 2);
+    assert_int_equal(hd_engine_frame(&e), 5 * P);
+    for (int q = 0; q < 6; q++)
+        dev_render(&e, &d, P);
+    const uint32_t focus[] = {0, 1};
+    const uint64_t start[] = {2 * P - 24, 5 * P - 40};
+    dev_expect(&d, &t, 2, focus, start, hd_engine_frame(&e));
+    assert_int_equal(atomic_load(&e.stats.rewinds), 2);
+    assert_int_equal(atomic_load(&e.stats.rewound_frames), 24 + 40);
+    /* A rewind never goes further back than the window. */
+    hd_engine_rewind(&e, 1000);
+    assert_int_equal(hd_engine_frame(&e), 11 * P - 2 * P);
+    assert_int_equal(atomic_load(&e.stats.rewound_frames), 24 + 40 + 2 * P);
+    hd_engine_free(&e);
+    fw_table_free(&t);
+}
+
+static void rewind_into_an_ended_voice(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 2, 100, FW_RANDOM, 1000, 32);
+    struct hd_board b;
+    struct hd_program *p = program(&t, &b);
+    struct hd_engine e;
+    assert_int_equal(hd_engine_init(&e, &b, p, 0), 0);
+    static struct device d;
+    memset(&d, 0, sizeof d);
+    hd_engine_start_at(&e, 0, 2 * P);
+    push(&e, 1, &t.ids[0]);
+    dev_render(&e, &d, P); /* A: frames 0..99 */
+    dev_render(&e, &d, P);
+    dev_render(&e, &d, P); /* A has ended (100 < 3P) but its tail is within reach */
+    assert_int_equal(hd_player_active(&e.player), 0);
+    assert_true(hd_player_uses(&e.player, p));
+    /* Back to frame P: A's frames P..99 must come out again, B on top. */
+    push(&e, 1, &t.ids[1]);
+    hd_engine_rewind(&e, 2 * P);
+    assert_int_equal(hd_engine_frame(&e), P);
+    dev_render(&e, &d, P);
+    dev_render(&e, &d, P);
+    for (int q = 0; q < 4; q++)
+        dev_render(&e, &d, P);
+    const uint32_t focus[] = {0, 1};
+    const uint64_t start[] = {0, P};
+    dev_expect(&d, &t, 2, focus, start, hd_engine_frame(&e));
+    /* Out of reach now: both released. */
+    assert_false(hd_player_uses(&e.player, p));
+    hd_engine_free(&e);
+    fw_table_free(&t);
+}
+
+static void slot_of_a_voice_in_reach_is_kept(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 1, 100, FW_RANDOM, 1000, 33);
+    struct hd_board b;
+    struct hd_program *p = program(&t, &b);
+    struct hd_player pl;
+    assert_int_equal(hd_player_init(&pl, &b), 0);
+    int32_t out[P * C];
+    hd_player_set_timeline(&pl, 0, 2 * P);
+    uint32_t id = t.ids[0];
+    assert_int_equal(hd_player_start(&pl, p, &id, 1), 1); /* V0 at 0, ends at 100 */
+    hd_player_render(&pl, out, P);
+    hd_player_render(&pl, out, P); /* frame 2P: V0 ended, still within reach */
+    assert_int_equal(hd_player_rewindable(&pl), 2 * P);
+    for (unsigned i = 1; i < HD_MAX_VOICES; i++)
+        assert_int_equal(hd_player_start(&pl, p, &id, 1), 1); /* the 7 free slots */
+    assert_int_equal(hd_player_rewindable(&pl), 2 * P);
+    /* No free slot: V0's (ended) is taken without cutting anything, and from
+     * now on no rewind may go back before this start (V0 would be missing). */
+    assert_int_equal(hd_player_start(&pl, p, &id, 1), 1);
+    assert_int_equal(pl.stats.voices_stolen, 0);
+    assert_int_equal(hd_player_rewindable(&pl), 0);
+    assert_int_equal(hd_player_rewind(&pl, 10), 0);
+    /* All 8 play: the next one cuts the oldest. */
+    assert_int_equal(hd_player_start(&pl, p, &id, 1), 1);
+    assert_int_equal(pl.stats.voices_stolen, 1);
+    assert_int_equal(hd_player_active(&pl), HD_MAX_VOICES);
+    hd_player_free(&pl);
+    hd_program_free(p);
+    fw_table_free(&t);
+}
+
 struct storm {
     struct hd_engine *e;
     uint32_t id;
@@ -223,10 +375,18 @@ static void trigger_storm_bounded_memory(void **state)
     long before = atomic_load(&allocations);
     assert_int_equal(pthread_create(&th, NULL, storm_producer, &s), 0);
     uint64_t periods = 0;
+    hd_engine_start_at(&e, 2 * P, 2 * P);
     while (!atomic_load(&s.done) || atomic_load(&e.ring.tail) != atomic_load(&e.ring.head)) {
         hd_engine_period(&e, out, P);
         hd_engine_written(&e, hd_now_ns());
         periods++;
+        if (periods % 2 && hd_engine_pending(&e) && hd_engine_rewindable(&e) > 0) { /* a trigger answered at once: rewind, render again */
+            uint64_t n = hd_engine_rewindable(&e) < 40 ? hd_engine_rewindable(&e) : 40;
+            hd_engine_rewind(&e, n);
+            hd_engine_period(&e, out, (uint32_t)n);
+            hd_engine_written(&e, hd_now_ns());
+            periods++;
+        }
     }
     pthread_join(th, NULL);
     long during = atomic_load(&allocations) - before;
@@ -248,6 +408,9 @@ int main(void)
         cmocka_unit_test(triggers_in_one_period_merge),
         cmocka_unit_test(oldest_voice_is_stolen),
         cmocka_unit_test(reload_hands_over_at_a_boundary),
+        cmocka_unit_test(rewind_starts_a_voice_at_once),
+        cmocka_unit_test(rewind_into_an_ended_voice),
+        cmocka_unit_test(slot_of_a_voice_in_reach_is_kept),
         cmocka_unit_test(trigger_storm_bounded_memory),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
