@@ -2,9 +2,11 @@
 // `calibgen verify SCENE TABLE --report DIR [--drive FILE.wav --expect T:ID,...]`.
 #include "app/commands.h"
 #include "app/progress.h"
+#include "engine/effects/effects_report.h"
 #include "pipeline/calibrate.h"
 #include "report/calibration_report.h"
 #include "scene/scene.h"
+#include "study/accuracy.h"
 
 #include <haptic_table.h>
 #include <sndfile.h>
@@ -37,6 +39,9 @@ pipeline::CalibrationInput input_from_scene(const std::string &path)
 {
     const std::string bytes = read_bytes(path);
     scene::Scene s = scene::parse_scene(bytes, path);
+    if (const auto c = study::apply_accuracy_target(s))  // calibration.accuracy picks the grid (docs/ACCURACY.md)
+        std::fprintf(stderr, "accuracy target %g %%: %.2f points per wavelength (predicted error %+.3f %%)\n",
+                     100 * *s.calibration->accuracy, c->points_per_wavelength, 100 * c->predicted_error);
     if (!s.calibration_sections())
         throw std::runtime_error(path + ": not a calibration scene: it needs [active_area], [exciters], [foci], "
                                         "[pulse] and [calibration] sections");
@@ -51,6 +56,7 @@ pipeline::CalibrationInput input_from_scene(const std::string &path)
     in.foci = *s.foci;
     in.pulse = *s.pulse;
     in.calibration = *s.calibration;
+    in.effects = s.effects;
     try {
         pipeline::check_feasible(in);
     } catch (const std::invalid_argument &e) {
@@ -86,10 +92,17 @@ bool all_good(const pipeline::Verification &v)
 struct CalibrateArgs {
     std::string scene, table, report;
     bool quiet = false;
+    bool dry_run = false;
 };
 
 int run_calibrate(const CalibrateArgs &a)
 {
+    if (a.dry_run) {
+        std::printf("%s", study::dry_run_summary(a.scene).c_str());
+        return 0;
+    }
+    if (a.table.empty())
+        throw std::runtime_error("calibrate: --output TABLE.htab is required (unless --dry-run)");
     const auto t0 = Clock::now();
     pipeline::CalibrationInput in = input_from_scene(a.scene);
     Progress progress(a.quiet);
@@ -97,6 +110,14 @@ int run_calibrate(const CalibrateArgs &a)
     progress.note("scene " + in.scene_name + ": grid " + std::to_string(g.nx) + " x " + std::to_string(g.ny) +
                   " cells of " + std::to_string(g.h * 1e3).substr(0, 5) + " mm, " +
                   std::to_string(in.foci.points.size()) + " foci, " + std::to_string(in.exciters.count) + " exciters");
+    {  // which effects run, and what leaving the others out costs (docs/effects.md)
+        const double f_hi = pipeline::pulse_max_frequency_hz(in.pulse);
+        const double f_lo = std::max(2 * in.pulse.centre_hz - f_hi, 0.25 * in.pulse.centre_hz);
+        for (const std::string &line : engine::effects::describe_effects(
+                 engine::effects::assess_effects(in.effects, in.plate->params(), f_lo, f_hi,
+                                                engine::effects::EffectSupport{true, true})))
+            progress.note(line);
+    }
     pipeline::CalibrationResult r = pipeline::calibrate(in, progress.callback());
     pipeline::write_table(a.table, in, r);
     const pipeline::PlacementReport &p = r.placement;
@@ -252,7 +273,8 @@ void register_calibrate(CLI::App &app, int &exit_code)
     auto a = std::make_shared<CalibrateArgs>();
     CLI::App *cmd = app.add_subcommand("calibrate", "Simulate, place exciters, write the time-reversal table, verify");
     cmd->add_option("scene", a->scene, "Scene file (TOML)")->required();
-    cmd->add_option("-o,--output", a->table, "Table to write (.htab)")->required();
+    cmd->add_option("-o,--output", a->table, "Table to write (.htab); required unless --dry-run");
+    cmd->add_flag("--dry-run", a->dry_run, "Print the chosen setting, predicted error, time and memory; run nothing");
     cmd->add_option("--report", a->report, "Directory for metrics.json and index.html");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary on stderr");
     cmd->callback([a, &exit_code] { exit_code = run_calibrate(*a); });

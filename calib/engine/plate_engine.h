@@ -38,9 +38,11 @@ private:
 template <typename T>
 class PlateEngine;
 
-// An effect with a state of its own (issue #6: finger, exciter model) acts
-// after the bulk and edge update on a few nodes. It sees the new field and
-// may add to it, scaled like a force (see PlateEngine::force_gain()).
+// An effect with a state of its own (issue #6: finger, exciter model;
+// engine/effects/) acts after the bulk, edge and source update on a few
+// nodes. It sees the new field u^{n+1} (newest_field()), u^n and u^{n-1}
+// (field_before(), field_two_before()) and may add to u^{n+1}, scaled like a
+// force (force_gain()). An engine without extensions never calls a hook.
 template <typename T>
 class EngineExtension {
 public:
@@ -94,6 +96,12 @@ public:
     T *newest_field() { return cur_; }
     std::ptrdiff_t stride() const { return stride_; }
     double force_gain(std::size_t node) const;
+    // During after_update(): u^n and u^{n-1} (newest_field() is u^{n+1}), so a
+    // point effect can form centred velocities and accelerations.
+    const T *field_before() const { return prev_; }
+    const T *field_two_before() const { return next_; }
+    // Offset of a node (row-major node index) in the field layout.
+    std::ptrdiff_t field_offset(std::size_t node) const { return offset_of(node); }
 
 private:
     struct SparseRows {  // CSR over the field layout, diagonal kept as a row sum

@@ -1,5 +1,7 @@
 #include "pipeline/calibrate.h"
 
+#include "engine/effects/exciter.h"
+
 #include <haptic_table.h>
 #include <zlib.h>
 
@@ -50,9 +52,14 @@ double a0_group_velocity(const engine::PlateOperator &plate, double f_hz)
 // the simulation (search, time reversal) works at this rate.
 double search_rate(const PulseSpec &p) { return std::max(2000.0, std::ceil(4.0 * pulse_max_frequency_hz(p))); }
 
-engine::SimulationOptions single_thread(engine::SimulationOptions o)
+// Every simulation of a calibration (impulse responses and verification):
+// one core each, and the Mindlin engine when the scene asks for the thick
+// plate (docs/effects.md). The finger is composed in drive() only.
+engine::SimulationOptions single_thread(const CalibrationInput &in)
 {
+    engine::SimulationOptions o = in.simulation;
     o.engine.threads = 1;  // foci run in parallel; each simulation keeps to one core
+    o.thick_plate = in.effects.thick_plate;
     return o;
 }
 
@@ -117,6 +124,31 @@ std::vector<double> drive_force(const std::vector<float> &x_full_scale, double r
     for (double &v : y)
         v *= force_full_scale_n;
     return y;
+}
+
+// Pre-compensates every channel by the regularised inverse of the exciter
+// (engine/effects/exciter.h), renormalises to peak 1 and requantises; the
+// gain follows, so `counts / gain` is still the force the plate receives.
+void precompensate_for_exciter(DriveSignals &d, const engine::effects::ExciterSpec &e, const TimeReversalOptions &tro)
+{
+    const size_t C = d.channels, N = d.frames;
+    std::vector<double> ch(N);
+    double peak = 0;
+    for (size_t c = 0; c < C; c++) {
+        for (size_t n = 0; n < N; n++)
+            ch[n] = d.normalized[n * C + c];
+        const std::vector<double> y = engine::effects::precompensate(ch, d.rate_hz, e);
+        for (size_t n = 0; n < N; n++) {
+            d.normalized[n * C + c] = y[n];
+            peak = std::max(peak, std::abs(y[n]));
+        }
+    }
+    if (!(peak > 0))
+        return;
+    for (double &v : d.normalized)
+        v /= peak;
+    d.gain /= peak;
+    requantize(d, d.level, tro);
 }
 
 void require_finite(const std::vector<double> &trace, const char *what, size_t index)
@@ -221,26 +253,38 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
     const double rate_d = search_rate(in.pulse);
     res.search_rate_hz = rate_d;
     auto t0 = Clock::now();
-    std::vector<std::vector<std::vector<float>>> responses(emitters.size());  // [emitter][site][n]
+    // Impulse responses h (a unit impulse at the emitter, band-limited by the
+    // resampling to the stored rate) and pulse responses r = p * h.
+    std::vector<std::vector<std::vector<float>>> responses(emitters.size());  // r [emitter][site][n]
+    std::vector<std::vector<std::vector<float>>> impulse(emitters.size());    // h [emitter][site][n]
+    const std::vector<double> pulse_d = sample_pulse(in.pulse, rate_d);
     size_t done = 0;
     std::string failure;
 #pragma omp parallel for schedule(dynamic)
     for (size_t e = 0; e < emitters.size(); e++) {
         try {
-            engine::Simulation sim(in.plate, single_thread(in.simulation));
+            engine::Simulation sim(in.plate, single_thread(in));
             const size_t src = sim.add_source(emitters[e].x_m, emitters[e].y_m);
             const double k = sim.time_step_s();
-            sim.set_source_signal(src, sample_pulse(in.pulse, 1.0 / k));
+            sim.set_source_impulse(src);
             for (Point s : pl.sites)
                 sim.add_receiver(s.x_m, s.y_m);
             sim.run(sim.steps_for(in.calibration.window_s));
-            std::vector<std::vector<float>> rec(pl.sites.size());
+            std::vector<std::vector<float>> rec(pl.sites.size()), imp(pl.sites.size());
             for (size_t i = 0; i < pl.sites.size(); i++) {
                 require_finite(sim.traces()[i], "receiver", i);
-                std::vector<double> d = resample(sim.traces()[i], 1.0 / k, rate_d);
-                rec[i].assign(d.begin(), d.end());
+                const std::vector<double> h = resample(sim.traces()[i], 1.0 / k, rate_d);
+                imp[i].assign(h.begin(), h.end());
+                rec[i].assign(h.size(), 0.0f);
+                for (size_t n = 0; n < h.size(); n++) {  // r = p * h, causal, truncated to the window
+                    double acc = 0;
+                    for (size_t m = 0; m < pulse_d.size() && m <= n; m++)
+                        acc += pulse_d[m] * h[n - m];
+                    rec[i][n] = static_cast<float>(acc);
+                }
             }
             responses[e] = std::move(rec);
+            impulse[e] = std::move(imp);
         } catch (const std::exception &ex) {
 #pragma omp critical
             failure = (e < foci ? "focus " + std::to_string(in.foci.points[e].id) : "probe " + std::to_string(e - foci)) +
@@ -277,7 +321,11 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
     }
     std::unique_ptr<ContrastModel> model;
     if (emitters.size() >= 2)
-        model = std::make_unique<ContrastModel>(responses, foci, keep);
+        model = std::make_unique<ContrastModel>(
+            responses, impulse, foci, keep,
+            in.exciters.contrast_at_focus_instant
+                ? static_cast<size_t>(std::ceil(pulse_duration_s(in.pulse) * rate_d))
+                : 0);
     SearchOptions so;
     so.count = in.exciters.count;
     so.min_spacing_m = in.exciters.min_spacing_m;
@@ -285,6 +333,7 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
     so.restarts = in.exciters.restarts;
     so.iterations = in.exciters.iterations;
     so.local_radius_m = lambda / 2;
+    so.first_start = pl.regular;
     if (in.exciters.placement == PlacementMode::regular) {
         pl.chosen = pl.regular;
     } else if (in.exciters.placement == PlacementMode::random) {
@@ -328,17 +377,38 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
         } catch (const std::invalid_argument &e) {
             throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
         }
+        if (in.effects.exciter && in.effects.exciter->precompensate)
+            precompensate_for_exciter(res.signals.back(), *in.effects.exciter, tro);
     }
     responses.clear();
     responses.shrink_to_fit();
+    impulse.clear();
+    impulse.shrink_to_fit();
     res.times.signals_s = seconds_since(t0);
 
-    // 4. Verification with the quantized signals.
+    // 4. Playback level: each focus is stored at the level that gives the
+    //    scene's target amplitude (never above full scale), so the device plays
+    //    the pulse the scene asks for. Linearity gives that level from one
+    //    forward run at full scale.
     t0 = Clock::now();
-    std::vector<std::vector<int16_t>> q;
-    for (const DriveSignals &d : res.signals)
-        q.push_back(d.samples);
-    res.verification = verify_signals(in, res.exciters, q, in.calibration.output_rate_hz, progress);
+    auto quantized = [&] {
+        std::vector<std::vector<int16_t>> q;
+        for (const DriveSignals &d : res.signals)
+            q.push_back(d.samples);
+        return q;
+    };
+    const Verification full =
+        verify_signals(in, res.exciters, quantized(), in.calibration.output_rate_hz, progress, false);
+    for (size_t f = 0; f < foci; f++) {
+        res.full_scale_peak_m.push_back(full.foci[f].peak_m);
+        if (!(full.foci[f].peak_m > 0))
+            throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) +
+                                     ": the exciters produce no displacement there");
+        tro.dither_seed = in.exciters.seed * 1000003u + f;
+        requantize(res.signals[f], std::min(1.0, in.pulse.amplitude_m / full.foci[f].peak_m), tro);
+    }
+    // 5. Verification with the signals exactly as the table stores them.
+    res.verification = verify_signals(in, res.exciters, quantized(), in.calibration.output_rate_hz, progress);
     res.times.verification_s = seconds_since(t0);
     return res;
 }
@@ -350,7 +420,7 @@ namespace {
 engine::Simulation drive(const CalibrationInput &in, const std::vector<Point> &exciters,
                          const std::vector<float> &frames, unsigned channels, double rate_hz, size_t steps)
 {
-    engine::Simulation sim(in.plate, single_thread(in.simulation));
+    engine::Simulation sim(in.plate, single_thread(in));
     const double k = sim.time_step_s();
     const size_t n = frames.size() / channels;
     for (unsigned c = 0; c < channels; c++) {
@@ -358,10 +428,15 @@ engine::Simulation drive(const CalibrationInput &in, const std::vector<Point> &e
         for (size_t i = 0; i < n; i++)
             ch[i] = frames[i * channels + c];
         const size_t src = sim.add_source(exciters[c].x_m, exciters[c].y_m);
-        sim.set_source_signal(src, drive_force(ch, rate_hz, 1.0 / k, in.exciters.force_full_scale_n));
+        std::vector<double> force = drive_force(ch, rate_hz, 1.0 / k, in.exciters.force_full_scale_n);
+        if (in.effects.exciter)  // the drive is Bl i; the plate gets the exciter's blocked force
+            force = engine::effects::blocked_force(force, 1.0 / k, *in.effects.exciter);
+        sim.set_source_signal(src, std::move(force));
     }
     for (const FocusPoint &f : in.foci.points)
         sim.add_receiver(f.at.x_m, f.at.y_m);
+    if (in.effects.finger)  // playback: the finger presses while the signals play, not during calibration
+        sim.add_finger(*in.effects.finger);
     sim.run(steps);
     return sim;
 }
@@ -378,7 +453,7 @@ std::vector<float> to_unit(const std::vector<int16_t> &s)
 
 Verification verify_signals(const CalibrationInput &in, const std::vector<Point> &exciters,
                             const std::vector<std::vector<int16_t>> &signals, double rate_hz,
-                            const ProgressFn &progress)
+                            const ProgressFn &progress, bool snapshots)
 {
     const size_t K = in.foci.points.size();
     if (signals.size() != K)
@@ -401,7 +476,7 @@ Verification verify_signals(const CalibrationInput &in, const std::vector<Point>
         try {
             const std::vector<float> frames = to_unit(signals[f]);
             const double drive_s = static_cast<double>(frames.size() / channels) / rate_hz;
-            engine::Simulation probe(in.plate, single_thread(in.simulation));
+            engine::Simulation probe(in.plate, single_thread(in));
             const size_t steps = probe.steps_for(drive_s + in.calibration.verify_tail_s);
             engine::Simulation sim = drive(in, exciters, frames, channels, rate_hz, steps);
             const double k = sim.time_step_s();
@@ -424,13 +499,21 @@ Verification verify_signals(const CalibrationInput &in, const std::vector<Point>
             }
             m.peak_time_s = static_cast<double>(peak_step + 1) * k;
             v.traces[f] = sim.traces();
-            // The field at the focus instant: run again to that step.
-            engine::Simulation snap = drive(in, exciters, frames, channels, rate_hz, peak_step + 1);
-            std::vector<double> field = snap.snapshot();
-            v.snapshots[f].resize(field.size());
-            for (size_t i = 0; i < field.size(); i++)
-                v.snapshots[f][i] = static_cast<float>(std::abs(field[i]));
-            m.spot_diameter_m = spot_diameter(v.snapshots[f], g, m.at, m.peak_m / 2);
+            if (snapshots) {
+                // The field at the focus instant: run again to that step.
+                engine::Simulation snap = drive(in, exciters, frames, channels, rate_hz, peak_step + 1);
+                std::vector<double> field = snap.snapshot();
+                v.snapshots[f].resize(field.size());
+                for (size_t i = 0; i < field.size(); i++)
+                    v.snapshots[f][i] = static_cast<float>(std::abs(field[i]));
+                m.spot_diameter_m = spot_diameter(v.snapshots[f], g, m.at, m.peak_m / 2);
+                for (int j = 0; j <= g.ny; j++)
+                    for (int i = 0; i <= g.nx; i++)
+                        if (std::hypot(i * g.h - m.at.x_m, j * g.h - m.at.y_m) > lambda_half)
+                            m.max_elsewhere_m = std::max(m.max_elsewhere_m,
+                                                         static_cast<double>(v.snapshots[f][g.node(i, j)]));
+                m.field_contrast_db = 20 * std::log10(m.peak_m / std::max(m.max_elsewhere_m, 1e-300));
+            }
             m.contrast_db = K > 1 ? 20 * std::log10(m.peak_m / std::max(m.max_other_foci_m, 1e-300)) : 0.0;
             m.crosses_threshold = m.peak_m >= in.calibration.threshold_m;
             m.others_below_threshold = m.max_other_foci_m < in.calibration.threshold_m;
@@ -460,7 +543,7 @@ Verification verify_drive(const CalibrationInput &in, const std::vector<Point> &
         throw std::invalid_argument("drive has " + std::to_string(channels) + " channels for " +
                                     std::to_string(exciters.size()) + " exciters");
     const size_t K = in.foci.points.size();
-    engine::Simulation probe(in.plate, single_thread(in.simulation));
+    engine::Simulation probe(in.plate, single_thread(in));
     const size_t steps = probe.steps_for(static_cast<double>(frames.size() / channels) / rate_hz +
                                          in.calibration.verify_tail_s);
     if (progress)

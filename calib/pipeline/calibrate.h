@@ -2,6 +2,7 @@
 // search, time-reversal signals, verification by forward simulation.
 // `calibgen calibrate` and `calibgen verify` are thin shells around this.
 #pragma once
+#include "engine/effects/effects.h"
 #include "engine/plate_operator.h"
 #include "engine/simulation.h"
 #include "pipeline/spec.h"
@@ -25,6 +26,7 @@ struct CalibrationInput {
     FociSpec foci;
     PulseSpec pulse;
     CalibrationSpec calibration;
+    engine::effects::EffectsSpec effects;  // [effects]; the exciter model acts here (docs/effects.md)
 };
 
 // Progress of long stages (stage name, items done, items total).
@@ -49,6 +51,10 @@ struct FocusMetrics {
     double max_other_foci_m = 0;    // max |w| at every other focus, at all times
     double contrast_db = 0;         // 20 log10(peak / max_other)
     double spot_diameter_m = 0;     // circle of the area around the focus where |w| >= peak / 2
+    // At the focus instant: the largest |w| on the plate farther than lambda/2
+    // from the focus, and the focus's margin over it (what the seed's Fig. 4 shows).
+    double max_elsewhere_m = 0;
+    double field_contrast_db = 0;
     double lambda_half_m = 0;       // half the A0 wavelength at the pulse centre
     bool crosses_threshold = false;
     bool others_below_threshold = false;
@@ -72,6 +78,7 @@ struct StageTimes {
 struct CalibrationResult {
     std::vector<Point> exciters;
     std::vector<DriveSignals> signals;  // per focus, in scene order
+    std::vector<double> full_scale_peak_m;  // focal peak if played at full scale, per focus
     PlacementReport placement;
     Verification verification;
     StageTimes times;
@@ -87,9 +94,10 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
 
 // Forward simulation: drive the exciters with per-focus signals ([n][c]
 // int16 at rate_hz, full scale = force_full_scale_n) and measure every focus.
+// Without snapshots only the traces and peaks are measured (half the cost).
 Verification verify_signals(const CalibrationInput &in, const std::vector<Point> &exciters,
                             const std::vector<std::vector<int16_t>> &signals, double rate_hz,
-                            const ProgressFn &progress = {});
+                            const ProgressFn &progress = {}, bool snapshots = true);
 
 // Forward simulation of one multichannel drive (e.g. what the device
 // played): returns traces[0][g] and, per focus, the peak and its time.

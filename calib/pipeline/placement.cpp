@@ -96,21 +96,33 @@ std::vector<size_t> regular_pattern(const Band &band, const std::vector<Point> &
 
 // ---- contrast model ----
 
-ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> &r, size_t foci, size_t keep)
+ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> &r,
+                             const std::vector<std::vector<std::vector<float>>> &h, size_t foci, size_t keep,
+                             size_t half_window)
 {
-    rows_ = r.size();
+    rows_ = h.size();
     foci_ = foci;
-    if (rows_ == 0 || foci == 0 || foci > rows_ || r[0].empty() || r[0][0].empty())
+    if (rows_ == 0 || foci == 0 || foci > rows_ || r.size() < foci || h[0].empty() || h[0][0].empty())
         throw std::invalid_argument("contrast model: no responses");
+    if (r[0].size() != h[0].size() || r[0][0].size() != h[0][0].size())
+        throw std::invalid_argument("contrast model: pulse and impulse responses differ in shape");
     if (rows_ < 2)
         throw std::invalid_argument("contrast model: needs at least one other focus or probe point");
-    sites_ = r[0].size();
-    const size_t len = r[0][0].size();
+    sites_ = h[0].size();
+    const size_t len = h[0][0].size();
     keep = std::clamp<size_t>(keep, 1, len);
-    lags_ = keep + len - 1;  // lag from -(keep-1) to len-1
+    const size_t all_lags = keep + len - 1;  // lag from -(keep-1) to len-1
     size_t nfft = 1;
-    while (nfft < lags_)
+    while (nfft < all_lags)
         nfft *= 2;
+    // Stored lags: first_lag .. first_lag + lags_ - 1.
+    long first_lag = -static_cast<long>(keep - 1);
+    lags_ = all_lags;
+    if (half_window > 0) {
+        first_lag = std::max(first_lag, -static_cast<long>(half_window));
+        const long last_lag = std::min(static_cast<long>(len) - 1, static_cast<long>(half_window));
+        lags_ = static_cast<size_t>(last_lag - first_lag + 1);
+    }
     corr_.assign(sites_ * foci_ * rows_ * lags_, 0.0f);
 
 #pragma omp parallel
@@ -124,10 +136,11 @@ ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> 
         for (size_t i = 0; i < sites_; i++) {
             for (size_t g = 0; g < rows_; g++) {
                 std::fill(buf.begin(), buf.end(), 0.0);
-                std::copy(r[g][i].begin(), r[g][i].end(), buf.begin());
+                std::copy(h[g][i].begin(), h[g][i].end(), buf.begin());
                 fft.fwd(spec_full[g], buf);
                 if (g < foci_) {
-                    std::fill(buf.begin() + static_cast<long>(keep), buf.end(), 0.0);
+                    std::fill(buf.begin(), buf.end(), 0.0);
+                    std::copy(r[g][i].begin(), r[g][i].begin() + static_cast<long>(keep), buf.begin());
                     fft.fwd(spec_kept[g], buf);
                 }
             }
@@ -137,8 +150,8 @@ ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> 
                         prod[k] = std::conj(spec_kept[f][k]) * spec_full[g][k];
                     fft.inv(out, prod);
                     float *c = &corr_[((i * foci_ + f) * rows_ + g) * lags_];
-                    for (size_t l = 0; l < lags_; l++) {  // lag = l - (keep-1), circular index
-                        const long lag = static_cast<long>(l) - static_cast<long>(keep - 1);
+                    for (size_t l = 0; l < lags_; l++) {  // circular index of the lag
+                        const long lag = first_lag + static_cast<long>(l);
                         c[l] = static_cast<float>(out[static_cast<size_t>((lag + static_cast<long>(nfft)) %
                                                                           static_cast<long>(nfft))]);
                     }
@@ -208,6 +221,14 @@ SearchResult anneal(const std::vector<Point> &sites, const SearchOptions &o, Eva
     for (unsigned restart = 0; restart < o.restarts; restart++) {
         // Random start: greedy random insertion with the spacing constraint.
         std::vector<size_t> set;
+        if (restart == 0 && o.first_start.size() == o.count) {
+            for (size_t c : o.first_start)
+                if (c < sites.size() && std::find(set.begin(), set.end(), c) == set.end() &&
+                    spaced_ok(set, set.size(), c))
+                    set.push_back(c);
+            if (set.size() != o.count)
+                set.clear();  // not a valid start: random like the others
+        }
         for (unsigned tries = 0; set.size() < o.count && tries < 100 * o.count * (sites.size() + 1); tries++) {
             const size_t c = rng() % sites.size();
             if (std::find(set.begin(), set.end(), c) == set.end() && spaced_ok(set, set.size(), c))

@@ -46,7 +46,7 @@ double distance_variety(const std::vector<Point> &exciters, double tolerance_m);
 std::vector<size_t> regular_pattern(const Band &band, const std::vector<Point> &sites, unsigned count);
 
 // Predicted focusing contrast from reciprocity. responses[g][i] is the
-// displacement at candidate site i while the pulse is emitted at point g
+// displacement at candidate site i while the pulse (or an impulse) is emitted at point g
 // (the first `foci` rows are foci, any further rows are probe points where
 // the field must stay small). Driving focus f's time-reversed signals (the
 // first `keep` samples reversed) from set E gives at point g
@@ -55,7 +55,18 @@ std::vector<size_t> regular_pattern(const Band &band, const std::vector<Point> &
 // Contrast of f = max|y_ff| / max_{g != f} max|y_fg|.
 class ContrastModel {
 public:
-    ContrastModel(const std::vector<std::vector<std::vector<float>>> &responses, size_t foci, size_t keep);
+    // half_window > 0 keeps only lags within +-half_window samples of the
+    // focus instant (the field when the focus forms, as in the seed's Fig. 4);
+    // 0 keeps every lag (the field at all times, as in Fig. 8).
+    ContrastModel(const std::vector<std::vector<std::vector<float>>> &responses, size_t foci, size_t keep,
+                  size_t half_window = 0)
+        : ContrastModel(responses, responses, foci, keep, half_window) {}
+    // The exact form: drive signals from the pulse responses r, the field from
+    // the impulse responses h (y_fg = sum_i rev(r_fi) * h_gi is then the field
+    // the exciters produce at g, up to resampling and quantization).
+    ContrastModel(const std::vector<std::vector<std::vector<float>>> &pulse_responses,
+                  const std::vector<std::vector<std::vector<float>>> &impulse_responses, size_t foci, size_t keep,
+                  size_t half_window = 0);
     size_t sites() const { return sites_; }
     size_t foci() const { return foci_; }
     size_t bytes() const { return corr_.size() * sizeof(float); }
@@ -92,6 +103,9 @@ struct SearchOptions {
     // Annealing temperature in objective units (dB for the contrast objective),
     // lowered geometrically over each restart.
     double temperature_start = 1.0, temperature_end = 0.01;
+    // If valid, the first restart starts here (e.g. the regular pattern), so
+    // the result is never worse than it.
+    std::vector<size_t> first_start;
 };
 
 struct SearchResult {

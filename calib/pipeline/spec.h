@@ -34,6 +34,9 @@ struct ExcitersSpec {
     std::optional<double> site_spacing_m;  // candidate lattice; default lambda/8 at the pulse centre
     unsigned restarts = 8;
     unsigned iterations = 1500;
+    // The contrast the search maximizes: over all times (the seed's Fig. 8
+    // criterion) or at the focus instant only (its Fig. 4 snapshots).
+    bool contrast_at_focus_instant = false;
 };
 
 // [foci]

@@ -74,26 +74,36 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &rec, dou
     }
     if (!(peak > 0) || !std::isfinite(peak))
         throw std::invalid_argument("all recordings are zero: no exciter site receives the pulse from this focus");
+    if (!std::isfinite(32767.0 / peak))  // a denormal peak: as good as zero
+        throw std::invalid_argument("the recordings' peak (" + std::to_string(peak) +
+                                    ") is too small to normalize: no exciter site receives the pulse");
 
     d.frames = out[0].size();
     d.gain = 32767.0 / peak;
     d.normalized.resize(d.frames * d.channels);
-    d.samples.resize(d.frames * d.channels);
+    for (size_t f = 0; f < d.frames; f++)
+        for (unsigned c = 0; c < d.channels; c++)
+            d.normalized[f * d.channels + c] = out[c][f] / peak;
+    requantize(d, 1.0, o);
+    return d;
+}
+
+void requantize(DriveSignals &d, double level, const TimeReversalOptions &o)
+{
+    if (!(level > 0 && level <= 1))
+        throw std::invalid_argument("playback level must lie in (0, 1]");
+    d.level = level;
+    d.samples.resize(d.normalized.size());
     // TPDF dither from a seeded generator: soxr's own dither is seeded from the
     // clock, which would make two calibrations of one scene differ.
     std::mt19937_64 rng(o.dither_seed);
     const double to_unit = 1.0 / 18446744073709551616.0;  // 2^-64
-    for (size_t f = 0; f < d.frames; f++)
-        for (unsigned c = 0; c < d.channels; c++) {
-            const double v = out[c][f] / peak;
-            double counts = v * 32767.0;
-            if (o.dither)
-                counts += static_cast<double>(rng()) * to_unit + static_cast<double>(rng()) * to_unit - 1.0;
-            d.normalized[f * d.channels + c] = v;
-            d.samples[f * d.channels + c] =
-                static_cast<int16_t>(std::clamp(std::lround(counts), static_cast<long>(INT16_MIN), 32767L));
-        }
-    return d;
+    for (size_t i = 0; i < d.normalized.size(); i++) {
+        double counts = d.normalized[i] * level * 32767.0;
+        if (o.dither)
+            counts += static_cast<double>(rng()) * to_unit + static_cast<double>(rng()) * to_unit - 1.0;
+        d.samples[i] = static_cast<int16_t>(std::clamp(std::lround(counts), static_cast<long>(INT16_MIN), 32767L));
+    }
 }
 
 }  // namespace calib::pipeline

@@ -22,7 +22,8 @@ struct DriveSignals {
     size_t frames = 0;
     double rate_hz = 0;
     std::vector<double> normalized;   // [frame][channel], peak |value| = 1 (before dither)
-    std::vector<int16_t> samples;     // [frame][channel], normalized * 32767 + dither
+    double level = 1.0;               // playback level: samples = level * normalized * 32767 + dither
+    std::vector<int16_t> samples;     // [frame][channel]
     // counts = gain * (reversed, resampled recording): a drive of s counts at an
     // exciter is s / gain of the recorded quantity (m per N of pulse force).
     double gain = 0;
@@ -36,6 +37,10 @@ struct DriveSignals {
 // exciters cannot reach must never become a NaN gain).
 DriveSignals make_drive_signals(const std::vector<std::vector<double>> &recordings, double sim_rate_hz,
                                 double pulse_duration_s, const TimeReversalOptions &options);
+
+// Re-quantize at `level` x full scale (0 < level <= 1): the signals keep their
+// shape, their peak becomes level * 32767 counts (seeded TPDF dither as above).
+void requantize(DriveSignals &d, double level, const TimeReversalOptions &options);
 
 // Band-limited resampling of one signal with soxr (high quality, linear phase).
 std::vector<double> resample(const std::vector<double> &x, double in_rate_hz, double out_rate_hz);

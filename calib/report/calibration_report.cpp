@@ -65,6 +65,8 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
             t.insert("max_other_foci_m", m.max_other_foci_m);
             t.insert("contrast_db", m.contrast_db);
             t.insert("spot_diameter_m", m.spot_diameter_m);
+            t.insert("max_elsewhere_m", m.max_elsewhere_m);
+            t.insert("field_contrast_db", m.field_contrast_db);
             t.insert("others_below_threshold", m.others_below_threshold);
             all_below &= m.others_below_threshold;
             min_contrast = std::min(min_contrast, m.contrast_db);
@@ -357,6 +359,7 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     h << "<h2>Metrics</h2><table><tr><th>focus</th><th>x (mm)</th><th>y (mm)</th><th>peak (um)</th>";
     if (c.mode == "table")
         h << "<th>max at other foci (um)</th><th>contrast (dB)</th><th>spot diameter (mm)</th><th>lambda/2 (mm)</th>"
+             "<th>field contrast at the focus instant (dB)</th>"
              "<th>crosses threshold</th><th>others below</th>";
     else
         h << "<th>peak time (ms)</th><th>crosses threshold</th>";
@@ -367,7 +370,8 @@ void write_html_report(const std::string &dir, const ReportContext &c)
           << "</td><td>" << num(m.peak_m * 1e6) << "</td>";
         if (c.mode == "table")
             h << "<td>" << num(m.max_other_foci_m * 1e6) << "</td><td>" << num(m.contrast_db) << "</td><td>"
-              << num(m.spot_diameter_m * 1e3) << "</td><td>" << num(m.lambda_half_m * 1e3) << "</td>"
+              << num(m.spot_diameter_m * 1e3) << "</td><td>" << num(m.lambda_half_m * 1e3) << "</td><td>"
+              << num(m.field_contrast_db) << "</td>"
               << yes(m.crosses_threshold) << yes(m.others_below_threshold);
         else
             h << "<td>" << num(m.peak_time_s * 1e3) << "</td>" << yes(m.crosses_threshold);

@@ -114,6 +114,11 @@ pipeline::ExcitersSpec parse_exciters(const Fields &f)
         e.force_full_scale_n = *v;
     if (auto v = f.positive("site_spacing_m"))
         e.site_spacing_m = *v;
+    if (auto w = f.string("contrast_window")) {
+        if (*w != "all" && *w != "focus")
+            f.fail("contrast_window", "unknown value \"" + *w + "\" (known: all, focus)");
+        e.contrast_at_focus_instant = *w == "focus";
+    }
     e.restarts = count_in(f, "restarts", e.restarts, 1, 1000);
     e.iterations = count_in(f, "iterations", e.iterations, 0, 1000000);
     if (f.has("positions_m")) {

@@ -1,6 +1,7 @@
 #include "scene/scene.h"
 
 #include "scene/calibration_sections.h"
+#include "scene/effects_section.h"
 #include "scene/toml_fields.h"
 
 #include <filesystem>
@@ -159,7 +160,7 @@ void parse_exciters_section(const toml::table &t, Scene &scene)
     scene.exciters = parse_exciters(Fields(t, scene.file, "exciters",
                                            {"count", "placement", "criterion", "seed", "min_spacing_m",
                                             "force_full_scale_n", "positions_m", "site_spacing_m", "restarts",
-                                            "iterations"}));
+                                            "iterations", "contrast_window"}));
 }
 
 void parse_foci_section(const toml::table &t, Scene &scene)
@@ -182,6 +183,12 @@ void parse_calibration_section(const toml::table &t, Scene &scene)
                                                   "threshold_m", "dither", "accuracy", "verify_tail_s"}));
 }
 
+void parse_effects_section(const toml::table &t, Scene &scene)
+{
+    scene.effects = parse_effects(Fields(t, scene.file, "effects", {"loss", "thick_plate", "finger", "exciter"}),
+                                  scene.plate);
+}
+
 // The order matters where a section uses another: [foci] grids divide the active area.
 constexpr Section sections[] = {
     {"plate", true, parse_plate},
@@ -191,6 +198,7 @@ constexpr Section sections[] = {
     {"foci", false, parse_foci_section},
     {"pulse", false, parse_pulse_section},
     {"calibration", false, parse_calibration_section},
+    {"effects", false, parse_effects_section},
 };
 
 }  // namespace
@@ -270,7 +278,7 @@ PlateSetup build_plate(const Scene &scene)
     params.material = p.material;
     params.edges = p.edges;
     const double kappa = p.material.kappa(p.thickness_m);
-    if (p.loss) {
+    if (p.loss && scene.effects.loss.value_or(true)) {  // effects.loss = false switches it off
         try {
             params.loss = engine::loss_from_t60(kappa, p.loss->f1_hz, p.loss->t60_1_s, p.loss->f2_hz, p.loss->t60_2_s);
         } catch (const std::invalid_argument &e) {
@@ -298,7 +306,7 @@ PlateSetup build_plate(const Scene &scene)
     setup.options.engine.threads = s.threads;
     if (s.time_step_s) {
         try {
-            setup.plate->check_time_step(*s.time_step_s);
+            engine::check_stable_time_step(*setup.plate, *s.time_step_s);
         } catch (const std::invalid_argument &e) {
             throw SceneError(scene.file + ": simulation.time_step_s: " + e.what());
         }

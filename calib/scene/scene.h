@@ -5,6 +5,7 @@
 // table. Errors are one line naming the file and the key.
 #pragma once
 
+#include "engine/effects/effects.h"
 #include "engine/plate_operator.h"
 #include "engine/simulation.h"
 #include "physics/material.h"
@@ -55,6 +56,7 @@ struct Scene {
     std::optional<pipeline::FociSpec> foci;
     std::optional<pipeline::PulseSpec> pulse;
     std::optional<pipeline::CalibrationSpec> calibration;
+    engine::effects::EffectsSpec effects;  // [effects] (docs/scene-format.md); all off when absent
     bool calibration_sections() const { return active_area && exciters && foci && pulse && calibration; }
 };
 

@@ -1,0 +1,79 @@
+// `calibgen study accuracy SCENE.toml --report DIR`: what accuracy costs in
+// time and memory (issue #6; calib/study/accuracy.h, docs/ACCURACY.md).
+#include "app/commands.h"
+#include "study/accuracy.h"
+
+#include <cstdio>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+namespace calib::app {
+
+namespace {
+
+struct StudyArgs {
+    std::string scene, report, ppw;
+    unsigned restarts = 2, iterations = 300;
+    bool quiet = false, ppw_only = false;
+};
+
+std::vector<double> parse_list(const std::string &s, const char *option)
+{
+    std::vector<double> v;
+    std::stringstream ss(s);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        char *end = nullptr;
+        const double x = std::strtod(item.c_str(), &end);
+        if (item.empty() || *end != '\0' || !(x >= 4 && x <= 200))
+            throw std::runtime_error(std::string(option) + ": \"" + item + "\" is not a number in [4, 200]");
+        v.push_back(x);
+    }
+    return v;
+}
+
+int run_study_accuracy(const StudyArgs &a)
+{
+    study::StudyOptions o;
+    if (!a.ppw.empty())
+        o.points_per_wavelength = parse_list(a.ppw, "--ppw");
+    o.search_restarts = a.restarts;
+    o.search_iterations = a.iterations;
+    o.quiet = a.quiet;
+    if (a.ppw_only) {
+        o.courants.clear();
+        o.window_factors.clear();
+        o.include_precision = o.include_model = false;
+    }
+    const study::StudyResult r = study::run_accuracy_study(a.scene, o, [&](const std::string &line) {
+        if (!a.quiet)
+            std::fprintf(stderr, "%s\n", line.c_str());
+    });
+    const std::string md = study::write_study_report(r, a.report);
+    std::printf("%s", md.c_str());
+    std::fprintf(stderr, "wrote %s/accuracy.{csv,svg,png,md}\n", a.report.c_str());
+    return 0;
+}
+
+}  // namespace
+
+void register_study(CLI::App &app, int &exit_code)
+{
+    CLI::App *study = app.add_subcommand("study", "Studies of the simulation itself");
+    study->require_subcommand(1);
+    auto a = std::make_shared<StudyArgs>();
+    CLI::App *cmd = study->add_subcommand(
+        "accuracy", "Sweep points per wavelength, precision, Courant factor, window and model: phase-velocity "
+                    "error (measured), focus change, time and memory; CSV, plot and table");
+    cmd->add_option("scene", a->scene, "Calibration scene (TOML)")->required();
+    cmd->add_option("--report", a->report, "Directory for accuracy.csv, .svg, .png, .md")->required();
+    cmd->add_option("--ppw", a->ppw, "Points per wavelength to sweep (default 6,8,10,12,16,20,24)");
+    cmd->add_option("--restarts", a->restarts, "Placement search restarts per setting (reduced budget)");
+    cmd->add_option("--iterations", a->iterations, "Placement search iterations per restart (reduced budget)");
+    cmd->add_flag("--ppw-only", a->ppw_only, "Sweep points per wavelength only (no precision, Courant, window, model)");
+    cmd->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
+    cmd->callback([a, &exit_code] { exit_code = run_study_accuracy(*a); });
+}
+
+}  // namespace calib::app
