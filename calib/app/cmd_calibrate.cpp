@@ -5,7 +5,7 @@
 #include "engine/effects/effects_report.h"
 #include "pipeline/calibrate.h"
 #include "report/calibration_report.h"
-#include "scene/scene.h"
+#include "scene/calibration_input.h"
 #include "study/accuracy.h"
 
 #include <haptic_table.h>
@@ -42,21 +42,7 @@ pipeline::CalibrationInput input_from_scene(const std::string &path)
     if (const auto c = study::apply_accuracy_target(s))  // calibration.accuracy picks the grid (docs/ACCURACY.md)
         std::fprintf(stderr, "accuracy target %g %%: %.2f points per wavelength (predicted error %+.3f %%)\n",
                      100 * *s.calibration->accuracy, c->points_per_wavelength, 100 * c->predicted_error);
-    if (!s.calibration_sections())
-        throw std::runtime_error(path + ": not a calibration scene: it needs [active_area], [exciters], [foci], "
-                                        "[pulse] and [calibration] sections");
-    scene::PlateSetup setup = scene::build_plate(s);
-    pipeline::CalibrationInput in;
-    in.scene_name = s.name;
-    in.scene_hash = pipeline::scene_hash(bytes);
-    in.plate = setup.plate;
-    in.simulation = setup.options;
-    in.active = *s.active_area;
-    in.exciters = *s.exciters;
-    in.foci = *s.foci;
-    in.pulse = *s.pulse;
-    in.calibration = *s.calibration;
-    in.effects = s.effects;
+    pipeline::CalibrationInput in = scene::calibration_input(s, scene::build_plate(s), bytes);
     try {
         pipeline::check_feasible(in);
     } catch (const std::invalid_argument &e) {

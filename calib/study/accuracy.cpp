@@ -1,5 +1,7 @@
 #include "study/accuracy.h"
 
+#include "scene/calibration_input.h"
+
 #include "engine/plate_engine.h"
 #include "io/atomic_file.h"
 #include "physics/dispersion.h"
@@ -138,21 +140,6 @@ Point2 snapshot_peak(const std::vector<float> &snap, int nx, int ny, double h)
     const double di = (i > 0 && i < nx) ? vertex(at(i - 1, j), at(i, j), at(i + 1, j)) : 0.0;
     const double dj = (j > 0 && j < ny) ? vertex(at(i, j - 1), at(i, j), at(i, j + 1)) : 0.0;
     return {(i + di) * h, (j + dj) * h};
-}
-
-pipeline::CalibrationInput input_of(const scene::Scene &s, const scene::PlateSetup &setup)
-{
-    pipeline::CalibrationInput in;
-    in.scene_name = s.name;
-    in.scene_hash = "study";
-    in.plate = setup.plate;
-    in.simulation = setup.options;
-    in.active = *s.active_area;
-    in.exciters = *s.exciters;
-    in.foci = *s.foci;
-    in.pulse = *s.pulse;
-    in.calibration = *s.calibration;
-    return in;
 }
 
 double scene_f_max(const scene::Scene &s)
@@ -510,7 +497,7 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
             on_grid.points_per_wavelength = r.lambda_f_max_m / setup.plate->grid().h;
             x.phase = measure_phase_velocity(sc.plate.material, sc.plate.thickness_m, r.f_max_hz, on_grid);
             x.predicted = predict_calibration(sc, setup, i == 0 ? &r.cost : nullptr);
-            const pipeline::CalibrationInput in = input_of(sc, setup);
+            const pipeline::CalibrationInput in = scene::calibration_input(sc, setup, "");
             pipeline::check_feasible(in);
             reset_peak_rss();
             const auto t0 = Clock::now();

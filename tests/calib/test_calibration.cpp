@@ -2,7 +2,7 @@
 // calibration sections (every key, every error path), the refusal of
 // impossible scenes, and the Fig. 4 placement against the regular pattern.
 #include "pipeline/calibrate.h"
-#include "scene/scene.h"
+#include "scene/calibration_input.h"
 #include "scene/toml_fields.h"
 
 #include <haptic_table.h>
@@ -62,19 +62,7 @@ verify_tail_s = 0.025
 
 pipeline::CalibrationInput input_of(const std::string &text, const std::string &name = "small.toml")
 {
-    scene::Scene s = scene::parse_scene(text, name);
-    scene::PlateSetup setup = scene::build_plate(s);
-    pipeline::CalibrationInput in;
-    in.scene_name = s.name;
-    in.scene_hash = pipeline::scene_hash(text);
-    in.plate = setup.plate;
-    in.simulation = setup.options;
-    in.active = *s.active_area;
-    in.exciters = *s.exciters;
-    in.foci = *s.foci;
-    in.pulse = *s.pulse;
-    in.calibration = *s.calibration;
-    return in;
+    return scene::calibration_input(text, name);
 }
 
 std::string replace(std::string s, const std::string &from, const std::string &to)

@@ -163,7 +163,7 @@ TEST(EffectReport, FingerMassRatioUnderAWavelengthSquared)
     p.material = calib::physics::material_from_elastic(2500, 70e9, 0.22, "glass");
     EffectsSpec e;
     e.finger = FingerSpec{0.005, 0, 0, 0.1, 0.1};
-    // calibrate cannot compose the finger yet and must say so...
+    // Where the simulation cannot compose the finger, the report says so...
     auto r = assess_effects(e, p, 100, 300);
     EXPECT_FALSE(r[2].active);
     EXPECT_NE(r[2].why.find("NOT composed"), std::string::npos) << r[2].why;

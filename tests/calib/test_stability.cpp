@@ -441,7 +441,7 @@ TEST(StabilityFloat, DecayedTailDoesNotSlowDownWithDenormalsFlushed)
     // A lossy float run decays from ~1e-3 m through the denormal range
     // (1.2e-38 .. 1.4e-45) to zero. Simulation::run flushes denormals: no
     // snapshot ever holds one, and the per-step time in the decayed tail stays
-    // within 3x of the start. Each chunk's time is the minimum over 3
+    // within 10x of the start. Each chunk's time is the minimum over 3
     // repetitions (other processes share the machine). The same run without
     // flushing (PlateEngine stepped bare) shows what is avoided: it does hold
     // denormals in the tail, and its time is printed.
@@ -535,7 +535,9 @@ TEST(StabilityFloat, DecayedTailDoesNotSlowDownWithDenormalsFlushed)
                 "(x %.2f); without flushing: %.3g -> %.3g us/step (x %.1f)\n",
                 ref * 1e6, worst * 1e6, worst / ref, ref_unflushed * 1e6, worst_unflushed * 1e6,
                 worst_unflushed / ref_unflushed);
-    EXPECT_LE(worst, 3 * ref);
+    // Denormal arithmetic costs ~100x per step (measured above); 10x leaves room
+    // for a loaded machine (parallel ctest) while still catching it.
+    EXPECT_LE(worst, 10 * ref);
 }
 
 // ---- non-finite values: detected at once, with step and place ----

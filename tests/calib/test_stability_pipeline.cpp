@@ -5,7 +5,7 @@
 // exciters).
 #include "pipeline/calibrate.h"
 #include "pipeline/placement.h"
-#include "scene/scene.h"
+#include "scene/calibration_input.h"
 
 #include <gtest/gtest.h>
 
@@ -37,19 +37,7 @@ std::string read_text(const std::string &path)
 
 CalibrationInput input_of(const std::string &toml, const std::string &name)
 {
-    scene::Scene s = scene::parse_scene(toml, name);
-    scene::PlateSetup setup = scene::build_plate(s);
-    CalibrationInput in;
-    in.scene_name = s.name;
-    in.scene_hash = scene_hash(toml);
-    in.plate = setup.plate;
-    in.simulation = setup.options;
-    in.active = *s.active_area;
-    in.exciters = *s.exciters;
-    in.foci = *s.foci;
-    in.pulse = *s.pulse;
-    in.calibration = *s.calibration;
-    return in;
+    return scene::calibration_input(toml, name);
 }
 
 std::string temp_path(const std::string &leaf)

@@ -64,7 +64,7 @@ std::vector<EffectStatus> assess_effects(const EffectsSpec &spec, const PlatePar
             s.why = "asked, but NOT composed (this simulation is Kirchhoff; the Mindlin engine is not wired in yet): " + est;
         } else if (spec.thick_plate)
             s.why = std::string(s.negligible ? "on (asked; negligible here)" : "on (asked)") +
-                    ", Mindlin engine in every simulation (calibration and verification); Kirchhoff would be off by: " + est;
+                    " (Mindlin engine in every simulation: calibration and verification); left out it would cost: " + est;
         else
             s.why = std::string(s.negligible ? "off (negligible): " : "off (NOT negligible, set effects.thick_plate): ") +
                     est;
@@ -80,7 +80,7 @@ std::vector<EffectStatus> assess_effects(const EffectsSpec &spec, const PlatePar
             s.estimated_error = ratio;
             s.negligible = ratio < negligible_relative;
             s.active = support.finger;
-            s.why = std::string(support.finger ? "on (asked), in the verification (playback) runs only; the calibration assumes no finger,"
+            s.why = std::string(support.finger ? "on (asked; composed in the verification (playback) runs only, not in the calibration)"
                                                : "asked, but NOT composed (no extension hook in this simulation)") +
                     fmt(" at (%.3g, %.3g) m: ", spec.finger->x_m, spec.finger->y_m) +
                     fmt("finger mass / plate mass under lambda^2 at f_max = %.2g", ratio) + (s.negligible ? " (negligible)" : "");
