@@ -53,15 +53,19 @@ pipeline::CalibrationInput input_from_scene(const std::string &path)
 
 void print_summary(const pipeline::Verification &v, const pipeline::CalibrationInput &in, bool table_mode)
 {
+    if (!table_mode) {  // a device recording: which focus moved how much, and when (judged by --expect)
+        std::fprintf(stderr, "%-6s %9s %9s %10s %12s\n", "focus", "x_mm", "y_mm", "peak_um", "at_ms");
+        for (const pipeline::FocusMetrics &m : v.foci)
+            std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %12.1f\n", m.id, m.at.x_m * 1e3, m.at.y_m * 1e3,
+                         m.peak_m * 1e6, m.peak_time_s * 1e3);
+        return;
+    }
     std::fprintf(stderr, "%-6s %9s %9s %10s %11s %9s %9s %s\n", "focus", "x_mm", "y_mm", "peak_um", "others_um",
                  "contr_dB", "spot_mm", "threshold");
     for (const pipeline::FocusMetrics &m : v.foci)
         std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %11.2f %9.1f %9.1f %s\n", m.id, m.at.x_m * 1e3, m.at.y_m * 1e3,
-                     m.peak_m * 1e6, table_mode ? m.max_other_foci_m * 1e6 : NAN, table_mode ? m.contrast_db : NAN,
-                     table_mode ? m.spot_diameter_m * 1e3 : NAN,
-                     !m.crosses_threshold ? "peak below"
-                     : (table_mode && !m.others_below_threshold) ? "others cross"
-                                                                 : "ok");
+                     m.peak_m * 1e6, m.max_other_foci_m * 1e6, m.contrast_db, m.spot_diameter_m * 1e3,
+                     !m.crosses_threshold ? "peak below" : !m.others_below_threshold ? "others cross" : "ok");
     std::fprintf(stderr, "(threshold %.1f um, lambda/2 = %.1f mm, exciter force at full scale %.3g N)\n",
                  in.calibration.threshold_m * 1e6, v.foci.empty() ? 0.0 : v.foci[0].lambda_half_m * 1e3,
                  in.exciters.force_full_scale_n);
