@@ -44,20 +44,9 @@ double exciter_q(const ExciterSpec &e)
 
 template <typename T>
 ExciterExtension<T>::ExciterExtension(const PlateEngine<T> &engine, double x_m, double y_m, const ExciterSpec &spec)
-    : spec_(spec), k_(engine.time_step())
+    : spec_(spec), k_(engine.time_step()), point_(engine, x_m, y_m, "exciter")
 {
     check_exciter(spec);
-    for (const auto &nw : engine.plate().point_weights(x_m, y_m)) {
-        if (taps_ == offset_.size())
-            break;
-        offset_[taps_] = engine.field_offset(nw.node);
-        weight_[taps_] = nw.weight;
-        gain_[taps_] = nw.weight * engine.force_gain(nw.node);
-        g_ += nw.weight * gain_[taps_];
-        ++taps_;
-    }
-    if (taps_ == 0)
-        throw std::invalid_argument("exciter: the point lies on held nodes only");
     // The suspension is explicit at the magnet: leapfrog needs (omega0 k)^2 =
     // s k^2 / M < 4; keep a factor 2 of margin (omega0 k < 1.4: far beyond any
     // real exciter's resonance at the plate's time step).
@@ -77,27 +66,18 @@ void ExciterExtension<T>::set_drive(std::vector<double> current_a)
 template <typename T>
 void ExciterExtension<T>::after_update(PlateEngine<T> &engine)
 {
-    T *next = engine.newest_field();
-    const T *cur = engine.field_before();
-    const T *prev = engine.field_two_before();
-    double wp = 0, w = 0, wm = 0;
-    for (std::size_t n = 0; n < taps_; ++n) {
-        wp += weight_[n] * double(next[offset_[n]]);
-        w += weight_[n] * double(cur[offset_[n]]);
-        wm += weight_[n] * double(prev[offset_[n]]);
-    }
+    const auto [wp, w, wm] = point_.read(engine);
     const double i = n_ < drive_.size() ? drive_[n_] : 0.0;
     ++n_;
     const double M = spec_.moving_mass_kg, c = spec_.damping_n_s_m, s = spec_.stiffness_n_m, k = k_;
     // M a = -s (z - W) - c/(2k) (k^2 a + 2 (z - z-) - W+ + W-) - Bl i, W+ = W+free - g M a.
     const double rhs = -s * (z_ - w) - c / (2 * k) * (2 * (z_ - z_prev_) - wp + wm) - spec_.force_factor_n_a * i;
-    const double a = rhs / (M + c * k / 2 + c * g_ * M / (2 * k));
+    const double a = rhs / (M + c * k / 2 + c * point_.g() * M / (2 * k));
     const double force = -M * a;
     const double z_next = k * k * a + 2 * z_ - z_prev_;
     z_prev_ = z_;
     z_ = z_next;
-    for (std::size_t n = 0; n < taps_; ++n)
-        next[offset_[n]] += T(gain_[n] * force);
+    point_.apply(engine, force);
     forces_.push_back(force);
 }
 

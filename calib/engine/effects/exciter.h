@@ -13,6 +13,7 @@
 #pragma once
 
 #include "engine/effects/effects.h"
+#include "engine/effects/point_coupling.h"
 #include "engine/plate_engine.h"
 
 #include <array>
@@ -44,11 +45,7 @@ public:
 private:
     ExciterSpec spec_;
     double k_ = 0;
-    std::size_t taps_ = 0;
-    std::array<std::ptrdiff_t, 4> offset_{};
-    std::array<double, 4> weight_{};
-    std::array<double, 4> gain_{};
-    double g_ = 0;
+    PointCoupling<T> point_;
     double z_ = 0, z_prev_ = 0;
     std::vector<double> drive_;
     std::size_t n_ = 0;

@@ -13,6 +13,7 @@
 #pragma once
 
 #include "engine/effects/effects.h"
+#include "engine/effects/point_coupling.h"
 #include "engine/plate_engine.h"
 
 #include <array>
@@ -34,11 +35,7 @@ public:
 private:
     FingerSpec spec_;
     double k_ = 0;
-    std::size_t taps_ = 0;
-    std::array<std::ptrdiff_t, 4> offset_{};
-    std::array<double, 4> weight_{};  // interpolation weight phi
-    std::array<double, 4> gain_{};    // phi * force_gain: displacement per newton
-    double g_ = 0;                    // phi^T gain
+    PointCoupling<T> point_;
     double force_ = 0, energy_ = 0;
 };
 
