@@ -14,9 +14,13 @@
 #include <filesystem>
 #include <string>
 
+#include "scene_text.h"
+
 using namespace calib;
 
 namespace {
+
+using scene_text::replace;
 
 // The demonstrator scaled down (half the size, four times the frequency, a
 // quarter of the time): 2 x 2 foci, the whole pipeline in about two seconds.
@@ -63,15 +67,6 @@ verify_tail_s = 0.025
 pipeline::CalibrationInput input_of(const std::string &text, const std::string &name = "small.toml")
 {
     return scene::calibration_input(text, name);
-}
-
-std::string replace(std::string s, const std::string &from, const std::string &to)
-{
-    const size_t at = s.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    if (at != std::string::npos)
-        s.replace(at, from.size(), to);
-    return s;
 }
 
 std::string error_of(const std::string &text)

@@ -11,10 +11,15 @@
 
 #include <string>
 
+#include "scene_text.h"
+
 using namespace calib::scene;
 using namespace calib::engine::effects;
 
 namespace {
+
+using scene_text::replace;
+using scene_text::error_of;
 
 const std::string plate = R"(
 [plate]
@@ -46,24 +51,6 @@ force_factor_n_a = 3.2
 precompensate = false
 max_boost_db = 12
 )";
-
-std::string error_of(const std::string &text)
-{
-    try {
-        Scene s = parse_scene(text, "scene.toml");
-        build_plate(s);
-    } catch (const SceneError &e) {
-        return e.what();
-    }
-    return "";
-}
-
-std::string replace(std::string text, const std::string &from, const std::string &to)
-{
-    const auto at = text.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    return text.replace(at, from.size(), to);
-}
 
 }  // namespace
 

@@ -7,10 +7,15 @@
 
 #include <string>
 
+#include "scene_text.h"
+
 using namespace calib::scene;
 using calib::engine::EdgeKind;
 
 namespace {
+
+using scene_text::replace;
+using scene_text::error_of;
 
 const char *good = R"(
 [plate]
@@ -29,25 +34,6 @@ courant = 0.9
 precision = "double"
 threads = 1
 )";
-
-// The error a scene text raises ("" if none).
-std::string error_of(const std::string &text)
-{
-    try {
-        Scene s = parse_scene(text, "scene.toml");
-        build_plate(s);
-    } catch (const SceneError &e) {
-        return e.what();
-    }
-    return "";
-}
-
-std::string replace(std::string text, const std::string &from, const std::string &to)
-{
-    const auto at = text.find(from);
-    EXPECT_NE(at, std::string::npos) << from;
-    return text.replace(at, from.size(), to);
-}
 
 }  // namespace
 
