@@ -1,6 +1,8 @@
 /* haptic_table.h - the calibration table format shared by calibgen (writer)
  * and hapticd (reader). One source of truth: docs/table-format.md documents
- * exactly what this code reads and writes.
+ * exactly what this code reads and writes. Three libraries: the reader
+ * (validate, open, accessors), the summary (print_summary) and the writer
+ * (encode, write); the device links only the first two.
  *
  * Conventions: functions return 0 on success or a negative HAPTIC_TABLE_E*
  * code; the optional haptic_table_error receives a one-line message that
@@ -152,7 +154,8 @@ const char *haptic_table_error_string(int code);
 /* Name of an enum haptic_drive_kind value (never NULL). */
 const char *haptic_drive_kind_name(int kind);
 
-/* Validate a table held in memory (the caller keeps the buffer alive). */
+/* Validate a table held in memory (the caller keeps the buffer alive; it must
+ * be at least 2-byte aligned, as malloc's is: the payload is used in place). */
 int haptic_table_validate(const void *data, size_t size, haptic_table *out, haptic_table_error *err);
 
 /* Read a file into one buffer and validate it; on failure nothing is kept. */
