@@ -1,6 +1,8 @@
 /* haptic_table.h - the calibration table format shared by calibgen (writer)
  * and hapticd (reader). One source of truth: docs/table-format.md documents
- * exactly what this code reads and writes.
+ * exactly what this code reads and writes. Three libraries: the reader
+ * (validate, open, accessors), the summary (print_summary) and the writer
+ * (encode, write); the device links only the first two.
  *
  * Conventions: functions return 0 on success or a negative HAPTIC_TABLE_E*
  * code; the optional haptic_table_error receives a one-line message that
@@ -27,7 +29,7 @@ extern "C" {
 
 #define HAPTIC_TABLE_MAGIC "HAPTBL\r\n"          /* 8 bytes, no terminator */
 #define HAPTIC_TABLE_VERSION_MAJOR 1u
-#define HAPTIC_TABLE_VERSION_MINOR 0u
+#define HAPTIC_TABLE_VERSION_MINOR 1u            /* newest minor this code writes and fully checks */
 #define HAPTIC_TABLE_HEADER_SIZE 128u
 #define HAPTIC_TABLE_CHANNEL_RECORD_SIZE 16u
 #define HAPTIC_TABLE_FOCUS_RECORD_SIZE 48u
@@ -43,6 +45,15 @@ extern "C" {
 #define HAPTIC_TABLE_MAX_RATE_HZ 768000u
 #define HAPTIC_TABLE_MAX_FILE_SIZE ((uint64_t)1 << 31) /* 2 GiB */
 
+/* Optional flag (1.1): the playback section is present (its offset at header byte 96). */
+#define HAPTIC_TABLE_FLAG_PLAYBACK 0x00010000u
+
+/* The off-diagonal Gram elements are checked against the payload when the
+ * products this takes, K (K - 1) / 2 * N * C, are at most this many: 169 foci
+ * of 8 channels x 37,800 frames, about 0.7 s on a desktop core
+ * (docs/table-format.md, "Gram matrix"; docs/BENCHMARKS.md). */
+#define HAPTIC_TABLE_GRAM_FULL_CHECK_MAX_PRODUCTS ((uint64_t)1 << 32)
+
 /* Provenance text fields: NUL-padded UTF-8, fixed width. */
 #define HAPTIC_TABLE_SCENE_NAME_LEN 64u
 #define HAPTIC_TABLE_SCENE_HASH_LEN 64u
@@ -50,7 +61,18 @@ extern "C" {
 #define HAPTIC_TABLE_CREATED_LEN 64u
 
 enum haptic_sample_format {
-    HAPTIC_SAMPLE_S16LE = 1, /* signed 16-bit, full scale = 32767 */
+    HAPTIC_SAMPLE_S16LE = 1, /* signed 16-bit, full scale = 32767 (-32768 allowed) */
+};
+
+/* What a sample means physically (1.1 playback section). With
+ * F = s * force_full_scale_n / 32767 for a stored sample s played at gain 1: */
+enum haptic_drive_kind {
+    HAPTIC_DRIVE_UNKNOWN = 0,                /* a 1.0 table, or no playback section */
+    HAPTIC_DRIVE_FORCE = 1,                  /* F is the force on the plate at the exciter's position */
+    HAPTIC_DRIVE_EXCITER = 2,                /* F is the exciter's motor force Bl i; the plate gets it
+                                                filtered by the exciter's own response */
+    HAPTIC_DRIVE_EXCITER_PRECOMPENSATED = 3, /* as EXCITER, pre-filtered by the inverse of that response
+                                                so the plate receives the time-reversal force */
 };
 
 enum haptic_table_status {
@@ -77,8 +99,9 @@ typedef struct haptic_table_error {
 typedef struct haptic_focus_info {
     uint32_t id;              /* user-visible focus id (scene order, not necessarily 0..K-1) */
     double x_m, y_m;          /* focus position on the plate, metres, plate origin at a corner */
-    double scale_m;           /* focal peak displacement (m) predicted at full scale */
+    double scale_m;           /* focal peak |displacement| (m) predicted when the stored samples play at gain 1 */
     double energy;            /* sum over channels and samples of s^2 (s in counts) = Gram[f][f] */
+    double lead_time_s;       /* playback start (frame 0) to the focal peak, s; NaN if unknown */
 } haptic_focus_info;
 
 typedef struct haptic_provenance {
@@ -101,7 +124,10 @@ typedef struct haptic_table {
     uint32_t focus_count;
     uint32_t samples_per_signal;
     uint64_t channels_offset, foci_offset, gram_offset, provenance_offset, payload_offset;
+    uint64_t playback_offset;  /* 0 without a playback section */
     uint32_t crc32;
+    double force_full_scale_n; /* force (N) of sample 32767 at gain 1; NaN if unknown */
+    uint16_t drive_kind;       /* enum haptic_drive_kind */
 } haptic_table;
 
 /* Writer input. The writer computes the Gram matrix and energies itself. */
@@ -115,13 +141,21 @@ typedef struct haptic_table_spec {
     const double *focus_xy_m;        /* [focus_count][2] */
     const double *focus_scale_m;     /* [focus_count] */
     const int16_t *samples;          /* [focus][sample][channel], i.e. interleaved frames */
-    const char *scene_name, *scene_hash, *tool_version, *created_utc; /* may be NULL */
+    const char *scene_name, *scene_hash, *tool_version, *created_utc; /* may be NULL (empty) */
+    /* Playback section (1.1), written when drive_kind != HAPTIC_DRIVE_UNKNOWN;
+     * then force_full_scale_n and focus_lead_time_s are required. */
+    uint16_t drive_kind;             /* enum haptic_drive_kind */
+    double force_full_scale_n;       /* N at sample 32767, gain 1 */
+    const double *focus_lead_time_s; /* [focus_count] playback start to focal peak, s */
 } haptic_table_spec;
 
 /* Human-readable name of a status code (never NULL). */
 const char *haptic_table_error_string(int code);
+/* Name of an enum haptic_drive_kind value (never NULL). */
+const char *haptic_drive_kind_name(int kind);
 
-/* Validate a table held in memory (the caller keeps the buffer alive). */
+/* Validate a table held in memory (the caller keeps the buffer alive; it must
+ * be at least 2-byte aligned, as malloc's is: the payload is used in place). */
 int haptic_table_validate(const void *data, size_t size, haptic_table *out, haptic_table_error *err);
 
 /* Read a file into one buffer and validate it; on failure nothing is kept. */
@@ -136,7 +170,12 @@ int haptic_table_channel_position(const haptic_table *t, uint32_t channel, doubl
 double haptic_table_gram(const haptic_table *t, uint32_t i, uint32_t j);   /* NaN if out of range */
 const int16_t *haptic_table_signal(const haptic_table *t, uint32_t focus); /* [n][c] interleaved */
 void haptic_table_provenance(const haptic_table *t, haptic_provenance *out);
-/* Index of the focus with this id, or -1. */
+/* Table-level playback facts (1.1): NaN / HAPTIC_DRIVE_UNKNOWN for a 1.0 table. */
+double haptic_table_force_full_scale_n(const haptic_table *t);
+int haptic_table_drive_kind(const haptic_table *t);
+/* Playback start to the focal peak of focus `index` (s); NaN if unknown or out of range. */
+double haptic_table_lead_time_s(const haptic_table *t, uint32_t index);
+/* Index of the focus with this id (any u32, 0 and 0xFFFFFFFF included), or -1. */
 int32_t haptic_table_find_focus(const haptic_table *t, uint32_t id);
 
 /* Encoded size of a spec (0 if the spec is invalid or too large). */

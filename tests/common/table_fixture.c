@@ -25,6 +25,7 @@ void table_fixture_init(table_fixture *fx, uint16_t channels, uint32_t foci, uin
         fx->focus_xy[2 * f] = 0.1 + 0.05 * f;
         fx->focus_xy[2 * f + 1] = 0.2 + 0.01 * f;
         fx->scale[f] = 1e-5 * (f + 1);
+        fx->lead_s[f] = (f % 4 + 1) * 0.25 * samples / 48000.0;
     }
     haptic_table_spec *sp = &fx->spec;
     sp->sample_rate_hz = 48000;
@@ -40,6 +41,9 @@ void table_fixture_init(table_fixture *fx, uint16_t channels, uint32_t foci, uin
     sp->scene_hash = "fnv1a64:0123456789abcdef";
     sp->tool_version = "test 0";
     sp->created_utc = "2026-11-21T00:00:00Z";
+    sp->drive_kind = HAPTIC_DRIVE_EXCITER;
+    sp->force_full_scale_n = 2.5;
+    sp->focus_lead_time_s = fx->lead_s;
 }
 
 void table_fixture_free(table_fixture *fx)

@@ -146,7 +146,7 @@ static void header_follows_the_documented_layout(void **state)
     /* Offsets and sizes as docs/table-format.md states them. */
     assert_memory_equal(b, "HAPTBL\r\n", 8);
     assert_int_equal(b[8] | b[9] << 8, 1);
-    assert_int_equal(b[10] | b[11] << 8, 0);
+    assert_int_equal(b[10] | b[11] << 8, 1);
     assert_int_equal(le32(b + 12), 128);
     assert_int_equal(le32(b + 20), 48000);
     assert_int_equal(b[24] | b[25] << 8, 8);
@@ -159,8 +159,12 @@ static void header_follows_the_documented_layout(void **state)
     assert_int_equal(fo, 128 + 8 * 16);
     assert_int_equal(gr, fo + 9 * 48);
     assert_int_equal(pr, gr + 9 * 9 * 8);
+    /* 1.1: the playback section (16 + 8 K bytes) follows the provenance. */
+    assert_int_equal(le32(b + 16), 0x00010000u);
+    uint64_t pb = le64(b + 96);
+    assert_int_equal(pb, pr + 256);
     assert_int_equal(pl % 64, 0);
-    assert_true(pl >= pr + 256 && pl < pr + 256 + 64);
+    assert_true(pl >= pb + 16 + 9 * 8 && pl < pb + 16 + 9 * 8 + 64);
     assert_int_equal(le64(b + 88), 9 * 100 * 8 * 2);
     assert_int_equal(pl + 9 * 100 * 8 * 2 + 4, size);
     /* Focus 1 record: id at +0, x at +8 (IEEE-754 double, little-endian). */

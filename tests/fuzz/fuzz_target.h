@@ -1,7 +1,9 @@
 /* Shared body of the fuzz harnesses: a table the reader accepts must be
  * fully usable through every accessor without touching memory outside it. */
+#define _POSIX_C_SOURCE 200809L /* open_memstream */
 #include <haptic_table.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,15 +20,30 @@ static void exercise_table(const uint8_t *data, size_t size)
             haptic_focus_info fi;
             if (haptic_table_focus(&t, f, &fi) != 0 || !(fi.energy > 0))
                 abort();
+            /* 1.1 facts: known together or not at all, and in their documented ranges. */
+            bool known = t.playback_offset != 0;
+            if (known != !isnan(fi.lead_time_s) || known != !isnan(haptic_table_force_full_scale_n(&t)) ||
+                known != (haptic_table_drive_kind(&t) != HAPTIC_DRIVE_UNKNOWN))
+                abort();
+            if (known && !(fi.lead_time_s >= 0 && haptic_table_force_full_scale_n(&t) > 0))
+                abort();
             const int16_t *s = haptic_table_signal(&t, f);
             sink += s[0] + s[(size_t)t.samples_per_signal * t.channel_count - 1];
             for (uint32_t g = 0; g < t.focus_count; g++)
                 if (!isfinite(haptic_table_gram(&t, f, g)))
                     abort();
         }
-        FILE *null = fopen("/dev/null", "w");
-        haptic_table_print_summary(&t, "fuzz", null);
-        fclose(null);
+        /* The summary of an accepted table is printable text: no control
+         * bytes but newlines (the reader refused anything else). */
+        char *text = NULL;
+        size_t len = 0;
+        FILE *mem = open_memstream(&text, &len);
+        haptic_table_print_summary(&t, "fuzz", mem);
+        fclose(mem);
+        for (size_t i = 0; i < len; i++)
+            if (((unsigned char)text[i] < 0x20 && text[i] != '\n') || text[i] == 0x7f)
+                abort();
+        free(text);
         (void)sink;
     } else if (err.message[0] == '\0' || strchr(err.message, '\n')) {
         abort(); /* every refusal carries a one-line message */

@@ -1,4 +1,6 @@
-/* Writes a few valid tables of different shapes as the fuzz seed corpus. */
+/* Writes a few valid tables of different shapes as the fuzz seed corpus:
+ * format 1.1 with the playback section, one without it (drive kind
+ * unknown). A table of the 1.0 writer is in tests/fuzz/regressions/. */
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -14,6 +16,8 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < sizeof shapes / sizeof *shapes; i++) {
         table_fixture fx;
         table_fixture_init(&fx, shapes[i].c, shapes[i].k, shapes[i].n, (uint32_t)i + 1);
+        if (i == 1)
+            fx.spec.drive_kind = HAPTIC_DRIVE_UNKNOWN;
         char path[4096];
         snprintf(path, sizeof path, "%s/seed%zu.htab", argv[1], i);
         haptic_table_error err;

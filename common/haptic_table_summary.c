@@ -1,0 +1,55 @@
+/* haptic_table_summary.c - the human summary of a validated table, printed
+ * by `calibgen inspect` and `hapticd --check`. The reader has refused any
+ * text that is not UTF-8 or holds control characters, so the provenance is
+ * printed as stored. */
+#include "haptic_table_internal.h"
+
+#include <math.h>
+
+static const char *or_unknown(const char *s) { return s[0] ? s : "(unknown)"; }
+
+int haptic_table_print_summary(const haptic_table *t, const char *path, FILE *out)
+{
+    if (!t || !t->data || !out)
+        return HAPTIC_TABLE_EINVAL;
+    haptic_provenance p;
+    haptic_table_provenance(t, &p);
+    double seconds = (double)t->samples_per_signal / t->sample_rate_hz;
+    fprintf(out, "table        %s (%zu bytes, format 1.%u, CRC-32 0x%08lx ok)\n", path ? path : "-", t->size,
+            (unsigned)t->format_minor, (unsigned long)t->crc32);
+    fprintf(out, "scene        %s (hash %s)\n", or_unknown(p.scene_name), or_unknown(p.scene_hash));
+    fprintf(out, "written by   %s on %s\n", or_unknown(p.tool_version), or_unknown(p.created_utc));
+    fprintf(out, "signals      %lu foci x %u channels x %lu samples S16LE at %lu Hz (%.1f ms each)\n",
+            (unsigned long)t->focus_count, (unsigned)t->channel_count, (unsigned long)t->samples_per_signal,
+            (unsigned long)t->sample_rate_hz, 1e3 * seconds);
+    const double force = haptic_table_force_full_scale_n(t);
+    if (isnan(force))
+        fprintf(out, "drive        unknown (no playback section: force per count, drive kind and lead times "
+                     "are not in this table)\n");
+    else
+        fprintf(out, "drive        %s, full scale (32767) = %.6g N, %.6g N per count\n",
+                haptic_drive_kind_name(haptic_table_drive_kind(t)), force, force / 32767.0);
+    for (uint32_t c = 0; c < t->channel_count; c++) {
+        double x, y;
+        haptic_table_channel_position(t, c, &x, &y);
+        fprintf(out, "exciter %-4lu (%8.1f, %8.1f) mm\n", (unsigned long)c, 1e3 * x, 1e3 * y);
+    }
+    double lead_min = INFINITY, lead_max = -INFINITY;
+    for (uint32_t f = 0; f < t->focus_count; f++) {
+        haptic_focus_info fi;
+        haptic_table_focus(t, f, &fi);
+        double rms = sqrt(fi.energy / ((double)t->samples_per_signal * t->channel_count)) / 32767.0;
+        char lead[32] = "lead ?";
+        if (!isnan(fi.lead_time_s)) {
+            snprintf(lead, sizeof lead, "lead %.1f ms", 1e3 * fi.lead_time_s);
+            lead_min = fmin(lead_min, fi.lead_time_s);
+            lead_max = fmax(lead_max, fi.lead_time_s);
+        }
+        fprintf(out, "focus id %-4lu (%8.1f, %8.1f) mm  as stored -> %.3g um  rms %.3f FS  %s\n", (unsigned long)fi.id,
+                1e3 * fi.x_m, 1e3 * fi.y_m, 1e6 * fi.scale_m, rms, lead);
+    }
+    if (lead_min <= lead_max)
+        fprintf(out, "lead time    %.1f..%.1f ms from playback start to the focal peak (add the input and audio "
+                     "latency for touch to focus)\n", 1e3 * lead_min, 1e3 * lead_max);
+    return 0;
+}

@@ -1,0 +1,504 @@
+/* The rules of docs/table-format.md that a reader written from the document
+ * alone must apply exactly as common/ does, each with a hand-computed vector:
+ * the Gram matrix against the payload, reserved bytes and gaps, provenance
+ * text, focus ids, the sample -32768, the 1.1 playback section, a 1.0 table,
+ * and the order in which faults are reported. Tables are edited at the
+ * documented offsets and the CRC re-made, so the content check must refuse. */
+#define _POSIX_C_SOURCE 200809L /* fmemopen */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "table_fixture.h"
+
+static uint32_t le32(const uint8_t *p) { return p[0] | p[1] << 8 | p[2] << 16 | (uint32_t)p[3] << 24; }
+static uint64_t le64(const uint8_t *p) { return le32(p) | (uint64_t)le32(p + 4) << 32; }
+static void put(uint8_t *p, size_t width, uint64_t v)
+{
+    for (size_t i = 0; i < width; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+static void put_f64(uint8_t *p, double d)
+{
+    uint64_t u;
+    memcpy(&u, &d, 8);
+    put(p, 8, u);
+}
+static double get_f64(const uint8_t *p)
+{
+    uint64_t u = le64(p);
+    double d;
+    memcpy(&d, &u, 8);
+    return d;
+}
+
+/* Validate a private, exactly-sized copy (ASan sees any overread). */
+static int check(const uint8_t *b, size_t size, haptic_table_error *err)
+{
+    uint8_t *copy = malloc(size);
+    memcpy(copy, b, size);
+    haptic_table t;
+    int rc = haptic_table_validate(copy, size, &t, err);
+    free(copy);
+    return rc;
+}
+
+/* Edit, re-make the CRC, and expect `want` with `needle` in the message and
+ * the error's offset at `at` (if at != UINT64_MAX). */
+static void expect(uint8_t *b, size_t size, int want, const char *needle, uint64_t at, const char *what)
+{
+    table_fixture_fix_crc(b, size);
+    haptic_table_error err;
+    int rc = check(b, size, &err);
+    if (rc != want || (needle && !strstr(err.message, needle)) || (at != UINT64_MAX && err.offset != at))
+        fail_msg("%s: rc %d at %llu (%s), want %d with '%s' at %llu", what, rc, (unsigned long long)err.offset,
+                 err.message, want, needle ? needle : "", (unsigned long long)at);
+}
+
+/* One channel, two foci of two frames: s0 = (3, 4), s1 = (-32768, 1).
+ * By hand: E0 = 9 + 16 = 25; E1 = 2^30 + 1 = 1073741825;
+ * G01 = 3 (-32768) + 4 = -98300. */
+static size_t tiny_table(uint8_t **out)
+{
+    static int16_t s[] = {3, 4, -32768, 1};
+    static const double cxy[] = {0.0, 0.0}, fxy[] = {0.1, 0.1, 0.2, 0.2}, scale[] = {1e-5, 1e-5}, lead[] = {0, 0};
+    static const uint32_t ids[] = {1, 2};
+    haptic_table_spec spec = {1000, 1, 2, 2, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL,
+                              HAPTIC_DRIVE_FORCE, 1.0, lead};
+    size_t size = (size_t)haptic_table_encoded_size(&spec);
+    *out = malloc(size);
+    haptic_table_error err;
+    if (haptic_table_encode(&spec, *out, size, &err) != 0)
+        fail_msg("%s", err.message);
+    return size;
+}
+
+static void gram_and_energies_are_the_exact_sums(void **state)
+{
+    (void)state;
+    uint8_t *b;
+    size_t size = tiny_table(&b);
+    uint64_t fo = le64(b + 56), gr = le64(b + 64);
+    assert_true(get_f64(b + gr) == 25.0);
+    assert_true(get_f64(b + gr + 8) == -98300.0 && get_f64(b + gr + 16) == -98300.0);
+    assert_true(get_f64(b + gr + 24) == 1073741825.0);
+    assert_true(get_f64(b + fo + 32) == 25.0 && get_f64(b + fo + 48 + 32) == 1073741825.0);
+    assert_int_equal(check(b, size, NULL), 0); /* -32768 is an allowed sample */
+    free(b);
+}
+
+static void an_altered_gram_or_payload_under_a_fresh_crc_is_refused(void **state)
+{
+    (void)state;
+    uint8_t *b, *w;
+    size_t size = tiny_table(&b);
+    w = malloc(size);
+    uint64_t fo = le64(b + 56), gr = le64(b + 64), pl = le64(b + 80);
+    /* Off-diagonal off by one, symmetric and within Cauchy-Schwarz
+     * (|G01| <= sqrt(25 * 1073741825) = 163840.0000076): only the payload says. */
+    memcpy(w, b, size);
+    put_f64(w + gr + 8, -98301.0);
+    put_f64(w + gr + 16, -98301.0);
+    expect(w, size, HAPTIC_TABLE_EGRAM, "gram[1][0]", gr + 16, "gram[1][0] altered");
+    /* Diagonal and energy altered together (they still agree with each other). */
+    memcpy(w, b, size);
+    put_f64(w + gr + 24, 1073741826.0);
+    put_f64(w + fo + 48 + 32, 1073741826.0);
+    expect(w, size, HAPTIC_TABLE_EGRAM, "gram[1][1]", gr + 24, "gram[1][1] altered");
+    /* Payload: s1[1] 1 -> 2 changes E1 (named on the diagonal first). */
+    memcpy(w, b, size);
+    put(w + pl + 6, 2, 2);
+    expect(w, size, HAPTIC_TABLE_EGRAM, "gram[1][1]", gr + 24, "payload, energy changed");
+    /* Payload: s1[1] 1 -> -1 keeps E1 but G01 becomes -98308. */
+    memcpy(w, b, size);
+    put(w + pl + 6, 2, (uint16_t)-1);
+    expect(w, size, HAPTIC_TABLE_EGRAM, "-98308", gr + 16, "payload, energy kept");
+    free(w);
+    free(b);
+}
+
+/* 4 channels x 2,100,000 frames, every sample 32767 but the last (2):
+ * E = 8,399,999 * 32767^2 + 4 = 9,018,879,753,923,715, above 2^53 where
+ * binary64 steps by 2: a tie between ...714 (significand ...857, odd) and
+ * ...716 (significand ...858, even); round-to-nearest-even stores ...716. */
+static void energy_above_2_pow_53_is_the_exact_sum_rounded_once(void **state)
+{
+    (void)state;
+    const uint32_t n = 2100000;
+    const uint16_t c = 4;
+    int16_t *s = malloc(sizeof *s * n * c);
+    for (size_t i = 0; i < (size_t)n * c; i++)
+        s[i] = 32767;
+    s[(size_t)n * c - 1] = 2;
+    const double cxy[8] = {0}, fxy[2] = {0.1, 0.1}, scale[1] = {1e-5};
+    const uint32_t ids[1] = {7};
+    haptic_table_spec spec = {48000, c, 1, n, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL, 0, 0, NULL};
+    size_t size = (size_t)haptic_table_encoded_size(&spec);
+    uint8_t *b = malloc(size);
+    assert_int_equal(haptic_table_encode(&spec, b, size, NULL), 0);
+    assert_true(8399999ull * 1073676289ull + 4ull == 9018879753923715ull);
+    assert_true((uint64_t)get_f64(b + le64(b + 64)) == 9018879753923716ull);
+    assert_int_equal(check(b, size, NULL), 0);
+    free(b);
+    free(s);
+}
+
+/* K foci of one channel x n frames, every signal the same ramp, built at the
+ * documented offsets (1.1 without a playback section): every Gram element is
+ * E. Used on both sides of the off-diagonal cost bound. */
+static size_t same_signal_table(uint32_t k, uint32_t n, uint8_t **out, uint64_t *gram_off)
+{
+    const uint64_t fo = 128 + 16, gr = fo + 48ull * k, pr = gr + 8ull * k * k;
+    const uint64_t pl = (pr + 256 + 63) / 64 * 64, size = pl + 2ull * k * n + 4;
+    uint8_t *b = calloc(1, size);
+    memcpy(b, "HAPTBL\r\n", 8);
+    put(b + 8, 2, 1);
+    put(b + 10, 2, 1);
+    put(b + 12, 4, 128);
+    put(b + 20, 4, 1000);
+    put(b + 24, 2, 1);
+    put(b + 26, 2, 1);
+    put(b + 28, 4, k);
+    put(b + 32, 4, n);
+    put(b + 40, 8, size);
+    put(b + 48, 8, 128);
+    put(b + 56, 8, fo);
+    put(b + 64, 8, gr);
+    put(b + 72, 8, pr);
+    put(b + 80, 8, pl);
+    put(b + 88, 8, 2ull * k * n);
+    double e = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        int16_t v = (int16_t)(i % 200 - 100);
+        e += (double)v * v;
+        for (uint32_t f = 0; f < k; f++)
+            put(b + pl + 2 * ((uint64_t)f * n + i), 2, (uint16_t)v);
+    }
+    for (uint32_t f = 0; f < k; f++) {
+        uint8_t *r = b + fo + 48ull * f;
+        put(r, 4, f);
+        put_f64(r + 8, 0.1);
+        put_f64(r + 16, 0.1);
+        put_f64(r + 24, 1e-5);
+        put_f64(r + 32, e);
+    }
+    for (uint64_t i = 0; i < (uint64_t)k * k; i++)
+        put_f64(b + gr + 8 * i, e);
+    table_fixture_fix_crc(b, size);
+    *out = b;
+    *gram_off = gr;
+    return size;
+}
+
+static void off_diagonal_check_follows_the_documented_cost_bound(void **state)
+{
+    (void)state;
+    /* 1024 foci: 523776 pairs. 8200 frames: 4,294,963,200 products <= 2^32,
+     * checked; 8201 frames: 4,295,486,976 > 2^32, diagonal only. */
+    const uint32_t frames[2] = {8200, 8201};
+    for (int k = 0; k < 2; k++) {
+        uint8_t *b;
+        uint64_t gr;
+        size_t size = same_signal_table(1024, frames[k], &b, &gr);
+        if (k == 1) /* (within the bound, accepting the intact table costs all 4.3e9 products) */
+            assert_int_equal(check(b, size, NULL), 0);
+        double e = get_f64(b + gr);
+        put_f64(b + gr + 8, e - 1);          /* gram[0][1] */
+        put_f64(b + gr + 1024 * 8, e - 1);   /* gram[1][0] */
+        table_fixture_fix_crc(b, size);
+        haptic_table_error err;
+        int rc = check(b, size, &err);
+        if (k == 0 && (rc != HAPTIC_TABLE_EGRAM || !strstr(err.message, "gram[1][0]")))
+            fail_msg("within the bound: rc %d (%s)", rc, err.message);
+        if (k == 1 && rc != 0)
+            fail_msg("above the bound the off-diagonal is not compared with the payload: rc %d (%s)", rc, err.message);
+        free(b);
+    }
+}
+
+static void focus_ids_0_and_ffffffff_are_ordinary_and_repeats_are_named(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 3, 8, 5);
+    fx.ids[0] = 0;
+    fx.ids[1] = 0xFFFFFFFFu;
+    uint8_t *b;
+    size_t size = table_fixture_encode(&fx, &b);
+    assert_true(size > 0);
+    haptic_table t;
+    assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+    assert_int_equal(haptic_table_find_focus(&t, 0), 0);
+    assert_int_equal(haptic_table_find_focus(&t, 0xFFFFFFFFu), 1);
+    uint64_t fo = le64(b + 56);
+    put(b + fo + 2 * 48, 4, 0xFFFFFFFFu); /* focus 2 repeats focus 1 */
+    expect(b, size, HAPTIC_TABLE_EFIELD, "focus 2 id): 4294967295 repeats focus 1", fo + 2 * 48, "repeat");
+    free(b);
+    table_fixture_free(&fx);
+}
+
+static void reserved_bytes_and_gaps_are_zero_up_to_the_known_minor(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 3, 8, 3); /* playback at 632..672, payload at 704 */
+    uint8_t *b, *w;
+    size_t size = table_fixture_encode(&fx, &b);
+    w = malloc(size);
+    uint64_t pb = le64(b + 96), pl = le64(b + 80), gap = pb + 16 + 3 * 8;
+    assert_int_equal(pb, 632);
+    assert_int_equal(pl, 704);
+    struct { uint64_t at; uint8_t v; const char *needle; } edits[] = {
+        {gap, 1, "gap between sections"}, {pl - 1, 0x80, "gap between sections"},
+        {104, 1, "header reserved"}, {127, 1, "header reserved"},
+    };
+    for (size_t i = 0; i < sizeof edits / sizeof *edits; i++) {
+        memcpy(w, b, size);
+        w[edits[i].at] = edits[i].v;
+        expect(w, size, HAPTIC_TABLE_EFIELD, edits[i].needle, edits[i].at, edits[i].needle);
+        put(w + 10, 2, 2); /* the same bytes in a 1.2 file: a later minor may use them */
+        expect(w, size, 0, NULL, UINT64_MAX, "minor 2");
+    }
+    /* An optional flag 1.1 does not define: refused in 1.1, ignored in 1.2. */
+    memcpy(w, b, size);
+    put(w + 16, 4, 0x80010000u);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "optional bits 0x80000000", 16, "flag 31");
+    put(w + 10, 2, 2);
+    expect(w, size, 0, NULL, UINT64_MAX, "flag 31 in 1.2");
+    free(w);
+    free(b);
+    table_fixture_free(&fx);
+}
+
+static void provenance_text_is_checked_as_documented(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 1, 1, 4, 9);
+    uint8_t *b, *w;
+    size_t size = table_fixture_encode(&fx, &b);
+    w = malloc(size);
+    const uint64_t pr = le64(b + 72);
+    /* field offset, text (NUL-padded to 64), 0 = accepted or the offending byte's index in the field. */
+    struct { unsigned field; const char *text; size_t n; long bad; const char *needle; } cases[] = {
+        {0, "", 0, -1, NULL},                                  /* empty: not known */
+        {0, "Glasplatte \xc3\xbc \xe2\x82\xac \xf0\x9f\x91\x86", 22, -1, NULL},
+        {0, "a\xc3(", 3, 1, "not valid UTF-8"},                 /* lead byte without continuation */
+        {0, "\xc0\xaf", 2, 0, "not valid UTF-8"},              /* overlong '/' */
+        {0, "\xed\xa0\x80", 3, 0, "not valid UTF-8"},          /* surrogate U+D800 */
+        {0, "\xf4\x90\x80\x80", 4, 0, "not valid UTF-8"},      /* U+110000 */
+        {0, "x\xc2\x85", 3, 1, "control character U+0085"},    /* C1 NEL */
+        {0, "x\x1b[31m", 6, 1, "control character U+001B"},    /* an escape sequence */
+        {128, "calibgen 0.1.0", 14, -1, NULL},
+        {64, "crc32:0badf00d", 14, -1, NULL},
+        {64, "sha-1:00", 8, -1, NULL},
+        {64, "CRC32:0badf00d", 14, 0, "algorithm:hex"},
+        {64, "crc32:0BADF00D", 14, 7, "algorithm:hex"},
+        {64, "crc32:abc", 9, 8, "algorithm:hex"},               /* not a whole number of bytes */
+        {64, "crc32:", 6, 5, "algorithm:hex"},
+        {64, "crc32", 5, 5, "algorithm:hex"},
+        {64, ":00", 3, 0, "algorithm:hex"},
+        {64, "1crc:00", 7, 0, "algorithm:hex"},
+        {192, "2026-11-21T23:59:60Z", 20, -1, NULL},
+        {192, "2026-13-01T00:00:00Z", 20, 5, "YYYY-MM-DDTHH:MM:SSZ"},
+        {192, "2026-11-00T00:00:00Z", 20, 8, "YYYY-MM-DDTHH:MM:SSZ"},
+        {192, "2026-11-21 00:00:00Z", 20, 10, "YYYY-MM-DDTHH:MM:SSZ"},
+        {192, "2026-11-21T24:00:00Z", 20, 11, "YYYY-MM-DDTHH:MM:SSZ"},
+        {192, "2026-11-21T00:00:00", 19, 19, "YYYY-MM-DDTHH:MM:SSZ"},
+        {192, "2026-11-21T00:00:00Z+", 21, 20, "YYYY-MM-DDTHH:MM:SSZ"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        memcpy(w, b, size);
+        memset(w + pr + cases[i].field, 0, 64);
+        memcpy(w + pr + cases[i].field, cases[i].text, cases[i].n);
+        char what[32];
+        snprintf(what, sizeof what, "provenance case %zu", i);
+        if (cases[i].bad < 0)
+            expect(w, size, 0, NULL, UINT64_MAX, what);
+        else
+            expect(w, size, HAPTIC_TABLE_EFIELD, cases[i].needle, pr + cases[i].field + (uint64_t)cases[i].bad, what);
+    }
+    /* A sequence cut by the end of the 64-byte field. */
+    memcpy(w, b, size);
+    memset(w + pr, 'a', 63);
+    w[pr + 63] = 0xc3;
+    expect(w, size, HAPTIC_TABLE_EFIELD, "not valid UTF-8", pr + 63, "cut sequence");
+    free(w);
+    free(b);
+    table_fixture_free(&fx);
+}
+
+static void playback_section_is_checked_as_documented(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 2, 480, 4); /* 480 frames at 48 kHz: lead times up to 0.01 + 1 s */
+    uint8_t *b, *w;
+    size_t size = table_fixture_encode(&fx, &b);
+    w = malloc(size);
+    const uint64_t pb = le64(b + 96);
+    haptic_table t;
+    assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+    assert_true(haptic_table_force_full_scale_n(&t) == 2.5);
+    assert_int_equal(haptic_table_drive_kind(&t), HAPTIC_DRIVE_EXCITER);
+    haptic_focus_info fi;
+    assert_int_equal(haptic_table_focus(&t, 1, &fi), 0);
+    assert_true(fi.lead_time_s == 0.005 && haptic_table_lead_time_s(&t, 1) == 0.005);
+    assert_true(isnan(haptic_table_lead_time_s(&t, 2)));
+
+    const double last = 480.0 / 48000.0 + 1.0; /* N / rate + 1 s, in binary64 */
+    struct { uint64_t at; int width; double f; uint64_t u; int ok; } cases[] = {
+        {pb + 0, 8, 1e6, 0, 1},                     {pb + 0, 8, nextafter(1e6, 2e6), 0, 0},
+        {pb + 0, 8, 0.0, 0, 0},                     {pb + 0, 8, NAN, 0, 0},
+        {pb + 0, 8, -2.5, 0, 0},                    {pb + 8, 2, 0, 1, 1},
+        {pb + 8, 2, 0, 3, 1},                       {pb + 8, 2, 0, 0, 0},
+        {pb + 8, 2, 0, 4, 0},                       {pb + 10, 2, 0, 1, 0},
+        {pb + 12, 4, 0, 1, 0},                      {pb + 16, 8, 0.0, 0, 1},
+        {pb + 16, 8, -0.0, 0, 1},                   {pb + 24, 8, last, 0, 1},
+        {pb + 24, 8, nextafter(last, 2.0), 0, 0},   {pb + 16, 8, -1e-300, 0, 0},
+        {pb + 24, 8, INFINITY, 0, 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        memcpy(w, b, size);
+        if (cases[i].width == 8)
+            put_f64(w + cases[i].at, cases[i].f);
+        else
+            put(w + cases[i].at, (size_t)cases[i].width, cases[i].u);
+        char what[32];
+        snprintf(what, sizeof what, "playback case %zu", i);
+        expect(w, size, cases[i].ok ? 0 : HAPTIC_TABLE_EFIELD, NULL, cases[i].ok ? UINT64_MAX : cases[i].at, what);
+    }
+    /* The section must not overlap the provenance or the payload. */
+    memcpy(w, b, size);
+    put(w + 96, 8, pb - 8);
+    expect(w, size, HAPTIC_TABLE_ELAYOUT, "playback_offset", 96, "overlaps provenance");
+    /* Flag cleared in 1.1: the offset field is then reserved and must be 0. */
+    memcpy(w, b, size);
+    put(w + 16, 4, 0);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "header reserved", 96, "offset without flag");
+    put(w + 96, 8, 0); /* section bytes are then a gap: 2.5 N = 0x4004000000000000 */
+    expect(w, size, HAPTIC_TABLE_EFIELD, "gap between sections", pb + 6, "section without flag");
+    free(w);
+    free(b);
+    table_fixture_free(&fx);
+}
+
+/* A table written by the 1.0 writer (tests/common/data): it loads, and what
+ * 1.0 does not say is reported as unknown. */
+static void a_format_1_0_table_still_loads(void **state)
+{
+    (void)state;
+    haptic_table t;
+    haptic_table_error err;
+    if (haptic_table_open(TABLE_1_0_PATH, &t, &err) != 0)
+        fail_msg("%s", err.message);
+    assert_int_equal(t.format_minor, 0);
+    assert_int_equal(t.focus_count, 3);
+    assert_true(isnan(haptic_table_force_full_scale_n(&t)));
+    assert_int_equal(haptic_table_drive_kind(&t), HAPTIC_DRIVE_UNKNOWN);
+    haptic_focus_info fi;
+    assert_int_equal(haptic_table_focus(&t, 2, &fi), 0);
+    assert_int_equal(fi.id, 30);
+    assert_true(fi.scale_m == 3.0000000000000004e-05 && isnan(fi.lead_time_s));
+    /* Its Gram matrix, from the 1.0 writer, agrees with this reader's sums. */
+    assert_true(haptic_table_gram(&t, 1, 0) == -430899121.0 && haptic_table_gram(&t, 2, 2) == 12083798582.0);
+    char text[4096] = {0};
+    FILE *f = fmemopen(text, sizeof text - 1, "w");
+    assert_int_equal(haptic_table_print_summary(&t, "t", f), 0);
+    fclose(f);
+    assert_non_null(strstr(text, "format 1.0"));
+    assert_non_null(strstr(text, "drive        unknown"));
+    assert_non_null(strstr(text, "lead ?"));
+    /* 1.0 defines no flag: the playback flag in a 1.0 file is an unknown one. */
+    uint8_t *b = malloc(t.size);
+    memcpy(b, t.data, t.size);
+    put(b + 16, 4, 0x00010000u);
+    expect(b, t.size, HAPTIC_TABLE_EFIELD, "optional bits 0x00010000", 16, "1.0 with the flag");
+    free(b);
+    haptic_table_close(&t);
+}
+
+static void summary_prints_the_playback_facts(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 2, 480, 4);
+    fx.spec.scene_hash = NULL; /* empty: printed as unknown */
+    uint8_t *b;
+    size_t size = table_fixture_encode(&fx, &b);
+    haptic_table t;
+    assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+    char text[4096] = {0};
+    FILE *f = fmemopen(text, sizeof text - 1, "w");
+    assert_int_equal(haptic_table_print_summary(&t, "t", f), 0);
+    fclose(f);
+    assert_non_null(strstr(text, "format 1.1"));
+    assert_non_null(strstr(text, "hash (unknown)"));
+    assert_non_null(strstr(text, "exciter drive (Bl i), full scale (32767) = 2.5 N, 7.62963e-05 N per count"));
+    assert_non_null(strstr(text, "lead 2.5 ms"));
+    assert_non_null(strstr(text, "lead time    2.5..5.0 ms"));
+    free(b);
+    table_fixture_free(&fx);
+}
+
+/* Which fault is named when there are several: the document's order. */
+static void faults_are_reported_in_the_documented_order(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 3, 8, 6);
+    uint8_t *b, *w;
+    size_t size = table_fixture_encode(&fx, &b);
+    w = malloc(size);
+    const uint64_t gr = le64(b + 64), pr = le64(b + 72), fo = le64(b + 56), pl = le64(b + 80);
+    /* Only the upper element differs: the lower one, gram[1][0], is named. */
+    memcpy(w, b, size);
+    put_f64(w + gr + 8 * 1, 1.0);
+    expect(w, size, HAPTIC_TABLE_EGRAM, "gram[1][0]", gr + 8 * 3, "upper element");
+    /* gram[2][1] and gram[1][0] both wrong: row 1 comes first. */
+    memcpy(w, b, size);
+    put_f64(w + gr + 8 * 7, 1e30);
+    put_f64(w + gr + 8 * 3, 1e30);
+    expect(w, size, HAPTIC_TABLE_EGRAM, "gram[1][0]", gr + 8 * 3, "two Gram faults");
+    /* A Gram fault before a provenance fault, a record fault before both. */
+    memcpy(w, b, size);
+    put_f64(w + gr + 8 * 7, 1e30);
+    w[pr] = 0x07;
+    expect(w, size, HAPTIC_TABLE_EGRAM, "gram[2][1]", gr + 8 * 7, "Gram before provenance");
+    put_f64(w + fo + 48 + 24, -1.0);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "focus 1 scale_m", fo + 48 + 24, "records before Gram");
+    /* Provenance before the payload comparison; a gap before everything else. */
+    memcpy(w, b, size);
+    w[pr] = 0x07;
+    w[pl + 5] ^= 0x40;
+    expect(w, size, HAPTIC_TABLE_EFIELD, "control character", pr, "provenance before payload");
+    w[pl - 1] = 1;
+    expect(w, size, HAPTIC_TABLE_EFIELD, "gap between sections", pl - 1, "gap first");
+    free(w);
+    free(b);
+    table_fixture_free(&fx);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(gram_and_energies_are_the_exact_sums),
+        cmocka_unit_test(an_altered_gram_or_payload_under_a_fresh_crc_is_refused),
+        cmocka_unit_test(energy_above_2_pow_53_is_the_exact_sum_rounded_once),
+        cmocka_unit_test(off_diagonal_check_follows_the_documented_cost_bound),
+        cmocka_unit_test(focus_ids_0_and_ffffffff_are_ordinary_and_repeats_are_named),
+        cmocka_unit_test(reserved_bytes_and_gaps_are_zero_up_to_the_known_minor),
+        cmocka_unit_test(provenance_text_is_checked_as_documented),
+        cmocka_unit_test(playback_section_is_checked_as_documented),
+        cmocka_unit_test(a_format_1_0_table_still_loads),
+        cmocka_unit_test(summary_prints_the_playback_facts),
+        cmocka_unit_test(faults_are_reported_in_the_documented_order),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
