@@ -268,7 +268,7 @@ void run(const DispersionArgs &a)
         std::map<std::pair<std::string, std::string>, std::size_t> index;
         double fundamental_max = 0, cl_max = 0;
         for (const Material &m : materials)
-            cl_max = std::max(cl_max, m.cl_m_s);
+            cl_max = std::max(cl_max, m.cl_m_s());
         auto series_for = [&](const std::string &mat, const std::string &key, const std::string &label,
                               report::LineStyle style, std::optional<report::Color> color) -> report::Series & {
             auto [it, added] = index.try_emplace({mat, key}, plot.series.size());
@@ -350,7 +350,7 @@ void register_dispersion(CLI::App &app, int &exit_code)
     cmd->add_option("--density", a->density, "Custom material: density (kg/m^3)");
     cmd->add_option("--youngs", a->youngs, "Custom material: Young's modulus (Pa), with --poisson");
     cmd->add_option("--poisson", a->poisson, "Custom material: Poisson's ratio, with --youngs");
-    cmd->add_option("--cl", a->cl, "Custom material: longitudinal speed (m/s), with --ct");
+    cmd->add_option("--cl", a->cl, "Custom material: longitudinal speed (m/s), with --ct; E and nu are derived from the pair");
     cmd->add_option("--ct", a->ct, "Custom material: shear speed (m/s), with --cl");
     cmd->add_option("--thickness", a->thickness, "Plate thickness (m)")->required();
     cmd->add_option("--freq", a->freq, "Frequencies (Hz): START:STOP:STEP (inclusive), START:STOP:xRATIO (geometric) or F1,F2,...")->required();

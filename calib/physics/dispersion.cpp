@@ -182,8 +182,7 @@ void check_inputs(const Material &m, double thickness_m, double f_hz)
         throw std::invalid_argument("frequency must be positive and finite");
     if (!(thickness_m > 0) || !std::isfinite(thickness_m))
         throw std::invalid_argument("thickness must be positive and finite");
-    if (!(m.ct_m_s > 0) || !(m.cl_m_s > m.ct_m_s) || !std::isfinite(m.cl_m_s))
-        throw std::invalid_argument("material needs 0 < c_T < c_L");
+    m.validate();
 }
 
 // Brent's method on [lo, hi] with f(lo), f(hi) of opposite signs.
@@ -287,8 +286,8 @@ ModePoint make_point(ModeFamily family, double f_hz, double h, double ct, double
 
 std::vector<ModePoint> lamb_family(const Material &m, double thickness_m, double f_hz, ModeFamily family)
 {
-    const double h = 0.5 * thickness_m, ct = m.ct_m_s;
-    const double r = (m.ct_m_s / m.cl_m_s) * (m.ct_m_s / m.cl_m_s);
+    const double h = 0.5 * thickness_m, ct = m.ct_m_s();
+    const double r = m.speed_ratio_squared();
     const double W = 2 * pi * f_hz * h / ct, W2 = W * W;
     auto F = [&](double K) { return detail::lamb_characteristic(family, K * K, W2, r).F; };
 
@@ -332,7 +331,7 @@ std::vector<ModePoint> lamb_family(const Material &m, double thickness_m, double
 std::vector<ModePoint> sh_family(const Material &m, double thickness_m, double f_hz)
 {
     // omega^2 = c_T^2 (k^2 + (n pi / d)^2): SH_n, cut-off n c_T / (2d).
-    const double h = 0.5 * thickness_m, ct = m.ct_m_s;
+    const double h = 0.5 * thickness_m, ct = m.ct_m_s();
     const double W = 2 * pi * f_hz * h / ct;  // omega h / c_T
     std::vector<ModePoint> out;
     for (int n = 0;; ++n) {
@@ -346,11 +345,6 @@ std::vector<ModePoint> sh_family(const Material &m, double thickness_m, double f
         out.push_back(p);
     }
     return out;
-}
-
-double elastic_shear_modulus(const Material &m)
-{
-    return m.youngs_pa / (2 * (1 + m.poisson));
 }
 
 }  // namespace
@@ -426,7 +420,7 @@ double mindlin_shear_factor(const Material &m, MindlinShear choice)
     if (choice == MindlinShear::pi2_over_12)
         return pi * pi / 12;
     const double cr = rayleigh_speed(m);
-    return (cr / m.ct_m_s) * (cr / m.ct_m_s);
+    return (cr / m.ct_m_s()) * (cr / m.ct_m_s());
 }
 
 namespace {
@@ -443,7 +437,7 @@ MindlinRoot mindlin_root(const Material &m, double d, double f_hz, MindlinShear 
 {
     check_inputs(m, d, f_hz);
     const double w2 = (2 * pi * f_hz) * (2 * pi * f_hz);
-    const double S = mindlin_shear_factor(m, choice) * elastic_shear_modulus(m) * d;
+    const double S = mindlin_shear_factor(m, choice) * m.shear_modulus_pa() * d;
     const double D = m.bending_stiffness(d);
     const double I = m.density_kg_m3 * d * d * d / 12, rd = m.density_kg_m3 * d;
     const double beta = (S * I + rd * D) * w2;
@@ -471,21 +465,22 @@ double rayleigh_speed(const Material &m)
 {
     // (2 - xi)^2 = 4 sqrt(1 - xi) sqrt(1 - r xi), xi = (c/c_T)^2; the root lies
     // in (0.3, 1) for every nu in (-1, 0.5), the other side of xi = 0 (trivial).
-    const double r = (m.ct_m_s / m.cl_m_s) * (m.ct_m_s / m.cl_m_s);
+    m.validate();
+    const double r = m.speed_ratio_squared();
     auto f = [r](double xi) { return (2 - xi) * (2 - xi) - 4 * std::sqrt(1 - xi) * std::sqrt(1 - r * xi); };
     const double xi = brent(f, 0.3, 1.0, f(0.3), f(1.0));
-    return m.ct_m_s * std::sqrt(xi);
+    return m.ct_m_s() * std::sqrt(xi);
 }
 
 double plate_speed(const Material &m)
 {
-    const double r = (m.ct_m_s / m.cl_m_s) * (m.ct_m_s / m.cl_m_s);
-    return 2 * m.ct_m_s * std::sqrt(1 - r);
+    m.validate();
+    return std::sqrt(m.youngs_pa / (m.density_kg_m3 * (1 - m.poisson * m.poisson)));
 }
 
 std::vector<double> cutoff_frequencies(const Material &m, double thickness_m, ModeFamily family, double f_max_hz)
 {
-    const double fT = m.ct_m_s / (2 * thickness_m), fL = m.cl_m_s / (2 * thickness_m);
+    const double fT = m.ct_m_s() / (2 * thickness_m), fL = m.cl_m_s() / (2 * thickness_m);
     std::vector<double> out;
     auto add = [&](double base, int first, int step) {
         for (int n = first; n * base <= f_max_hz; n += step)

@@ -3,11 +3,10 @@
 // Kirchhoff and Mindlin flexural approximations of A0 that the plate engine
 // and the accuracy studies compare against.
 //
-// The exact modes use the material's bulk speeds c_L, c_T; the plate theories
-// use its E, nu, rho (as the FD engine does). For a self-consistent material
-// both agree in the low-frequency limit; for Table I acrylic (whose printed
-// c_L = 2700 m/s is 1 % below the 2726 m/s implied by E, nu) they differ by a
-// 0.07 % floor in the A0 speed. See docs/dispersion.md.
+// Everything here is computed from the material's E, nu and rho, as the FD
+// engine is: the exact modes through the bulk speeds c_L, c_T derived from
+// them, the plate theories directly. So exact A0 and Kirchhoff meet in the
+// low-frequency limit for every material. See docs/dispersion.md.
 #pragma once
 #include "physics/material.h"
 
@@ -36,7 +35,7 @@ struct ModePoint {
 // rank by decreasing k (increasing phase velocity) at this frequency: between
 // a zero-group-velocity point and its cut-off a backward-wave branch takes the
 // next index. Throws std::invalid_argument for f <= 0, thickness <= 0 or a
-// material without positive c_T < c_L.
+// material that fails Material::validate().
 std::vector<ModePoint> solve_modes(const Material &m, double thickness_m, double f_hz);
 
 // One family only (cheaper): used by the single-mode helpers below.
@@ -67,7 +66,7 @@ double mindlin_group_velocity(const Material &m, double thickness_m, double f_hz
 
 // Bulk and limit speeds of the plate's material.
 double rayleigh_speed(const Material &m);   // surface wave: the A0 and S0 limit at high f*d
-double plate_speed(const Material &m);      // sqrt(E / (rho (1 - nu^2))) from c_L, c_T: S0 at low f*d
+double plate_speed(const Material &m);      // sqrt(E / (rho (1 - nu^2))): S0 at low f*d
 
 // Analytic cut-off frequencies (k = 0) of the family's higher modes up to
 // f_max, ascending: A: (2n+1) c_T/(2d) and 2n c_L/(2d); S: 2n c_T/(2d) and

@@ -5,6 +5,35 @@
 
 namespace calib::physics {
 
+void Material::validate() const
+{
+    if (!(density_kg_m3 > 0) || !(youngs_pa > 0) || !std::isfinite(density_kg_m3) || !std::isfinite(youngs_pa))
+        throw std::invalid_argument("density and Young's modulus must be positive and finite");
+    if (!(poisson > -1.0 && poisson < 0.5))
+        throw std::invalid_argument("Poisson's ratio must lie in (-1, 0.5)");
+}
+
+double Material::shear_modulus_pa() const
+{
+    return youngs_pa / (2.0 * (1.0 + poisson));
+}
+
+double Material::cl_m_s() const
+{
+    // lambda + 2 mu = E (1 - nu) / ((1 + nu) (1 - 2 nu))
+    return std::sqrt(youngs_pa * (1.0 - poisson) / (density_kg_m3 * (1.0 + poisson) * (1.0 - 2.0 * poisson)));
+}
+
+double Material::ct_m_s() const
+{
+    return std::sqrt(shear_modulus_pa() / density_kg_m3);
+}
+
+double Material::speed_ratio_squared() const
+{
+    return (1.0 - 2.0 * poisson) / (2.0 * (1.0 - poisson));
+}
+
 double Material::bending_stiffness(double thickness_m) const
 {
     return youngs_pa * thickness_m * thickness_m * thickness_m / (12.0 * (1.0 - poisson * poisson));
@@ -18,9 +47,9 @@ double Material::kappa(double thickness_m) const
 const std::vector<Material> &builtin_materials()
 {
     static const std::vector<Material> table = {
-        {"acrylic", 1200.0, 4.76e9, 0.38, 2700.0, 1200.0},
-        {"glass", 1590.0, 68.9e9, 0.16, 6790.0, 4321.0},
-        {"steel", 7850.0, 205e9, 0.28, 5778.0, 3194.0},
+        {"acrylic", 1200.0, 4.76e9, 0.38},
+        {"glass", 1590.0, 68.9e9, 0.16},
+        {"steel", 7850.0, 205e9, 0.28},
     };
     return table;
 }
@@ -43,13 +72,9 @@ std::string known_material_names()
 
 Material material_from_elastic(double rho, double E, double nu, std::string name)
 {
-    if (!(rho > 0) || !(E > 0) || !std::isfinite(rho) || !std::isfinite(E))
-        throw std::invalid_argument("density and Young's modulus must be positive and finite");
-    if (!(nu > -1.0 && nu < 0.5))
-        throw std::invalid_argument("Poisson's ratio must lie in (-1, 0.5)");
-    const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu));
-    const double mu = E / (2 * (1 + nu));
-    return {std::move(name), rho, E, nu, std::sqrt((lambda + 2 * mu) / rho), std::sqrt(mu / rho)};
+    Material m{std::move(name), rho, E, nu};
+    m.validate();
+    return m;
 }
 
 Material material_from_speeds(double rho, double cl, double ct, std::string name)
@@ -61,7 +86,7 @@ Material material_from_speeds(double rho, double cl, double ct, std::string name
         throw std::invalid_argument("c_T must be below sqrt(3)/2 c_L for a physical Poisson's ratio");
     const double nu = (1 - 2 * r2) / (2 * (1 - r2));
     const double E = 2 * rho * ct * ct * (1 + nu);
-    return {std::move(name), rho, E, nu, cl, ct};
+    return material_from_elastic(rho, E, nu, std::move(name));
 }
 
 }  // namespace calib::physics
