@@ -8,6 +8,7 @@
 #include <map>
 #include <new>
 #include <stdexcept>
+#include <tuple>
 
 #if defined(__SSE__) || defined(__x86_64__)
 #include <xmmintrin.h>
@@ -95,54 +96,90 @@ double PlateEngine<T>::force_gain(std::size_t node) const
     return d * k_ * k_ / op_->mass()[u];
 }
 
-// Rows for the unknowns within two cells of an edge, from the assembled
-// matrices, in the same form as the bulk kernel:
+// Rows for the unknowns of the edge band, in the same form as the bulk kernel:
 //   u+ = c + g (c - p) - R u + S u-,
 //   R = d (k^2 M^-1 K + 2 sigma1 k M^-1 Gm),  S = d 2 sigma1 k M^-1 Gm,
-// with R u stored as sum_m R_nm (u_m - u_n) + (row sum) u_n so that rounded
-// coefficients cannot make a rigid motion of a free plate feel a force.
+// built from the factored K and Gm (sum of weight (a b^T + b a^T) / 2): row n
+// of R u is sum_s coef_ns (s . u) over the strains s. Stored as assembled
+// matrix rows instead, the float-rounded coefficients no longer sum to zero
+// against a tilt: a free plate's rotation modes then get eigenvalues ~ -1e-10
+// of M^-1 K k^2 and grow exponentially (docs/engine.md).
 template <typename T>
 void PlateEngine<T>::build_edge_rows()
 {
     const PlateOperator &op = *op_;
     const Loss &loss = op.params().loss;
     const double d = 1.0 / (1.0 + loss.sigma0 * k_);
-    const auto &K = op.stiffness();
-    const auto &G = op.dirichlet();
-    edge_r_ = {};
-    edge_s_ = {};
-    edge_r_.start.assign(1, 0);
-    edge_s_.start.assign(1, 0);
+    const auto &stencils = op.edge_stencils();
+    // Per band node: sum over terms of weight/2 (a_n (b . u) + b_n (a . u)),
+    // as a map strain -> coefficient (before the 1/m_n scaling).
+    std::map<std::size_t, std::map<std::size_t, double>> rows_k, rows_g;
+    auto add_terms = [&](const std::vector<PlateOperator::FormTerm> &terms,
+                         std::map<std::size_t, std::map<std::size_t, double>> &rows) {
+        for (const auto &f : terms) {
+            const PlateOperator::Stencil &sa = stencils[f.a], &sb = stencils[f.b];
+            for (auto [own, other] : {std::pair{&sa, f.b}, std::pair{&sb, f.a}}) {
+                const double other_scale = stencils[other].scale;
+                for (int t = 0; t < own->count; ++t) {
+                    const std::size_t node = own->node[std::size_t(t)];
+                    const int i = int(node % std::size_t(nx_ + 1)), j = int(node / std::size_t(nx_ + 1));
+                    if (!op.in_edge_band(i, j))
+                        continue;
+                    rows[node][other] +=
+                        0.5 * f.weight * own->weight[std::size_t(t)] * own->scale * other_scale;
+                }
+            }
+        }
+    };
+    add_terms(op.edge_stiffness_terms(), rows_k);
+    if (loss.sigma1 > 0)
+        add_terms(op.edge_dirichlet_terms(), rows_g);
+
+    for (StrainRows *rows : {&edge_r_, &edge_s_}) {
+        *rows = {};
+        rows->start.assign(1, 0);
+        rows->strain_start.assign(1, 0);
+    }
+    // Each StrainRows keeps the strains it reads, renumbered.
+    auto strain_index = [&](StrainRows &rows, std::map<std::size_t, std::uint32_t> &index, std::size_t s) {
+        auto [it, fresh] = index.try_emplace(s, std::uint32_t(index.size()));
+        if (fresh) {
+            const PlateOperator::Stencil &st = stencils[s];
+            for (int t = 0; t < st.count; ++t) {
+                rows.strain_offset.push_back(offset_of(st.node[std::size_t(t)]));
+                rows.strain_weight.push_back(T(st.weight[std::size_t(t)]));
+            }
+            rows.strain_start.push_back(std::uint32_t(rows.strain_offset.size()));
+        }
+        return it->second;
+    };
+    std::map<std::size_t, std::uint32_t> index_r, index_s;
     for (std::size_t u = 0; u < op.unknown_count(); ++u) {
         const std::size_t node = op.node_of()[u];
         const int i = int(node % std::size_t(nx_ + 1)), j = int(node / std::size_t(nx_ + 1));
-        if (i >= 2 && i <= nx_ - 2 && j >= 2 && j <= ny_ - 2)
+        if (!op.in_edge_band(i, j))
             continue;  // bulk
         const double minv = 1.0 / op.mass()[Eigen::Index(u)];
-        std::map<std::ptrdiff_t, double> r, s;
-        for (PlateOperator::SparseMatrix::InnerIterator it(K, Eigen::Index(u)); it; ++it)
-            r[offset_of(op.node_of()[std::size_t(it.col())])] += d * k_ * k_ * minv * it.value();
-        if (loss.sigma1 > 0)
-            for (PlateOperator::SparseMatrix::InnerIterator it(G, Eigen::Index(u)); it; ++it) {
-                const double v = d * 2 * loss.sigma1 * k_ * minv * it.value();
-                r[offset_of(op.node_of()[std::size_t(it.col())])] += v;
-                s[offset_of(op.node_of()[std::size_t(it.col())])] += v;
-            }
-        const std::ptrdiff_t self = offset_of(node);
-        for (auto [rows, src] : {std::pair{&edge_r_, &r}, std::pair{&edge_s_, &s}}) {
-            double sum = 0;
-            rows->target.push_back(self);
-            for (auto [col, v] : *src) {
-                sum += v;
-                if (col != self && v != 0.0) {
-                    rows->column.push_back(col);
-                    rows->value.push_back(T(v));
+        std::map<std::size_t, double> r, s;
+        for (auto [strain, c] : rows_k[node])
+            r[strain] += d * k_ * k_ * minv * c;
+        for (auto [strain, c] : rows_g[node]) {
+            const double v = d * 2 * loss.sigma1 * k_ * minv * c;
+            r[strain] += v;
+            s[strain] += v;
+        }
+        for (auto [rows, src, index] : {std::tuple{&edge_r_, &r, &index_r}, std::tuple{&edge_s_, &s, &index_s}}) {
+            rows->target.push_back(offset_of(node));
+            for (auto [strain, c] : *src)
+                if (c != 0.0) {
+                    rows->strain.push_back(strain_index(*rows, *index, strain));
+                    rows->coef.push_back(T(c));
                 }
-            }
-            rows->row_sum.push_back(T(sum));
-            rows->start.push_back(std::uint32_t(rows->column.size()));
+            rows->start.push_back(std::uint32_t(rows->strain.size()));
         }
     }
+    edge_r_.strain_value.assign(edge_r_.strain_start.size() - 1, T(0));
+    edge_s_.strain_value.assign(edge_s_.strain_start.size() - 1, T(0));
 }
 
 template <typename T>
@@ -199,23 +236,35 @@ void PlateEngine<T>::step_impl()
         const int used = cells >= options_.parallel_min_cells ? threads : 1;
         bulk_update_threads<T, Lossy>(cur_, prev_, next_, stride_, i0, i1, j0, j1, bulk_, used);
     }
-    // The edge band: sparse rows of the assembled operator.
+    // The edge band: strains, then rows of the factored operator.
+    auto strains = [](StrainRows &rows, const T *field) {
+        const std::size_t n = rows.strain_value.size();
+        for (std::size_t s = 0; s < n; ++s) {
+            double v = 0;
+            for (std::uint32_t e = rows.strain_start[s]; e < rows.strain_start[s + 1]; ++e)
+                v += double(rows.strain_weight[e]) * double(field[rows.strain_offset[e]]);
+            rows.strain_value[s] = v;
+        }
+    };
+    strains(edge_r_, cur_);
+    if constexpr (Lossy)
+        strains(edge_s_, prev_);
     const std::size_t rows = edge_r_.target.size();
     const T g = bulk_.g;
     for (std::size_t r = 0; r < rows; ++r) {
         const std::ptrdiff_t self = edge_r_.target[r];
-        const T c = cur_[self], p = prev_[self];
-        T ru = edge_r_.row_sum[r] * c;
+        const double c = double(cur_[self]), p = double(prev_[self]);
+        double ru = 0;
         for (std::uint32_t e = edge_r_.start[r]; e < edge_r_.start[r + 1]; ++e)
-            ru += edge_r_.value[e] * (cur_[edge_r_.column[e]] - c);
-        T v = c + g * (c - p) - ru;
+            ru += double(edge_r_.coef[e]) * edge_r_.strain_value[edge_r_.strain[e]];
+        double v = c + double(g) * (c - p) - ru;
         if constexpr (Lossy) {
-            T sp = edge_s_.row_sum[r] * p;
+            double sp = 0;
             for (std::uint32_t e = edge_s_.start[r]; e < edge_s_.start[r + 1]; ++e)
-                sp += edge_s_.value[e] * (prev_[edge_s_.column[e]] - p);
+                sp += double(edge_s_.coef[e]) * edge_s_.strain_value[edge_s_.strain[e]];
             v += sp;
         }
-        next_[self] = v;
+        next_[self] = T(v);
     }
     for (PointTap &src : sources_) {
         if (src.force == T(0))

@@ -104,12 +104,22 @@ public:
     std::ptrdiff_t field_offset(std::size_t node) const { return offset_of(node); }
 
 private:
-    struct SparseRows {  // CSR over the field layout, diagonal kept as a row sum
+    // Edge-band rows in factored form (plate_operator.h): first the strains
+    // (integer-weighted differences of the field), then each row as a
+    // combination of strains. A free plate's rigid motion has zero strains,
+    // so it feels no force in float either, whatever the rounding of `coef`.
+    // The band sums in double (a row has up to ~20 terms; the band is a thin
+    // fraction of the grid), so its round-off is one rounding per node and
+    // step, as in the bulk.
+    struct StrainRows {
+        std::vector<std::uint32_t> strain_start;  // size strain count + 1
+        std::vector<std::ptrdiff_t> strain_offset;
+        std::vector<T> strain_weight;  // small integers, exact in T
+        std::vector<double> strain_value;  // scratch, one per strain
         std::vector<std::ptrdiff_t> target;
-        std::vector<T> row_sum;
         std::vector<std::uint32_t> start;  // size target.size() + 1
-        std::vector<std::ptrdiff_t> column;
-        std::vector<T> value;
+        std::vector<std::uint32_t> strain;
+        std::vector<T> coef;
     };
     struct PointTap {
         std::vector<std::ptrdiff_t> offset;
@@ -131,7 +141,7 @@ private:
     T *storage_ = nullptr;
     T *prev_ = nullptr, *cur_ = nullptr, *next_ = nullptr;
     BulkCoefficients<T> bulk_{};
-    SparseRows edge_r_, edge_s_;  // u+ = c + g (c - p) - R u + S u- on the edge band
+    StrainRows edge_r_, edge_s_;  // u+ = c + g (c - p) - R u + S u- on the edge band
     std::vector<PointTap> sources_, receivers_;
     std::vector<std::unique_ptr<EngineExtension<T>>> extensions_;
 };

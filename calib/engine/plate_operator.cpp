@@ -148,6 +148,39 @@ void PlateOperator::assemble()
         mass_[u] = rho_d * h * h * mass_weight(i, j);
     }
 
+    edge_stencils_.clear();
+    edge_stiffness_terms_.clear();
+    edge_dirichlet_terms_.clear();
+    // Terms of the factored form that touch the edge band, with their
+    // stencils (every coefficient an integer times scale). A stencil is kept
+    // once per node or cell: `id` caches it (-1: not yet made).
+    auto touches_band = [&](const Row &r) {
+        return std::any_of(r.begin(), r.end(), [&](const Term &t) {
+            return unknown_of_[grid_.node(t.i, t.j)] >= 0 && in_edge_band(t.i, t.j);
+        });
+    };
+    auto edge_stencil = [&](const Row &r, double scale, std::ptrdiff_t &id) {
+        if (id >= 0)
+            return std::size_t(id);
+        Stencil st;
+        st.scale = scale;
+        for (const Term &t : r) {
+            if (unknown_of_[grid_.node(t.i, t.j)] < 0)
+                continue;
+            st.node[std::size_t(st.count)] = grid_.node(t.i, t.j);
+            st.weight[std::size_t(st.count)] = int(std::lround(t.c / scale));
+            ++st.count;
+        }
+        edge_stencils_.push_back(st);
+        id = std::ptrdiff_t(edge_stencils_.size() - 1);
+        return std::size_t(id);
+    };
+    auto edge_term = [&](std::vector<FormTerm> &terms, const Row &ra, std::ptrdiff_t &ia, const Row &rb,
+                         std::ptrdiff_t &ib, double scale, double weight) {
+        if (touches_band(ra) || touches_band(rb))
+            terms.push_back({edge_stencil(ra, scale, ia), edge_stencil(rb, scale, ib), weight});
+    };
+
     std::vector<Eigen::Triplet<double>> tk, tg;
     // Adds scale * (r1 r2^T + r2 r1^T)/2 (symmetric outer product) over the unknowns.
     auto add_outer = [&](std::vector<Eigen::Triplet<double>> &t, const Row &r1, const Row &r2, double scale) {
@@ -179,20 +212,28 @@ void PlateOperator::assemble()
                 ra.push_back({ii, j, c});
             for (auto [jj, c] : dy)
                 rb.push_back({i, jj, c});
+            std::ptrdiff_t sa = -1, sb = -1;
             if (has_x && has_y) {
                 add_outer(tk, ra, ra, dh2 * w);
                 add_outer(tk, rb, rb, dh2 * w);
                 add_outer(tk, ra, rb, 2 * nu * dh2 * w);
+                edge_term(edge_stiffness_terms_, ra, sa, ra, sa, inv_h2, dh2 * w);
+                edge_term(edge_stiffness_terms_, rb, sb, rb, sb, inv_h2, dh2 * w);
+                edge_term(edge_stiffness_terms_, ra, sa, rb, sb, inv_h2, 2 * nu * dh2 * w);
             } else if (has_x) {
                 add_outer(tk, ra, ra, (1 - nu * nu) * dh2 * w);
+                edge_term(edge_stiffness_terms_, ra, sa, ra, sa, inv_h2, (1 - nu * nu) * dh2 * w);
             } else if (has_y) {
                 add_outer(tk, rb, rb, (1 - nu * nu) * dh2 * w);
+                edge_term(edge_stiffness_terms_, rb, sb, rb, sb, inv_h2, (1 - nu * nu) * dh2 * w);
             }
         }
     for (int j = 0; j < ny; ++j)
         for (int i = 0; i < nx; ++i) {
             const Row twist = {{i + 1, j + 1, inv_h2}, {i + 1, j, -inv_h2}, {i, j + 1, -inv_h2}, {i, j, inv_h2}};
             add_outer(tk, twist, twist, 2 * (1 - nu) * dh2);
+            std::ptrdiff_t st = -1;
+            edge_term(edge_stiffness_terms_, twist, st, twist, st, inv_h2, 2 * (1 - nu) * dh2);
         }
     // Dirichlet form over links, trapezoid-weighted along the boundary.
     const double inv_h = 1.0 / h;
@@ -202,11 +243,15 @@ void PlateOperator::assemble()
                 const double w = (j == 0 || j == ny) ? 0.5 : 1.0;
                 const Row r = {{i + 1, j, inv_h}, {i, j, -inv_h}};
                 add_outer(tg, r, r, rho_d * h * h * w);
+                std::ptrdiff_t sl = -1;
+                edge_term(edge_dirichlet_terms_, r, sl, r, sl, inv_h, rho_d * h * h * w);
             }
             if (j < ny) {
                 const double w = (i == 0 || i == nx) ? 0.5 : 1.0;
                 const Row r = {{i, j + 1, inv_h}, {i, j, -inv_h}};
                 add_outer(tg, r, r, rho_d * h * h * w);
+                std::ptrdiff_t sl = -1;
+                edge_term(edge_dirichlet_terms_, r, sl, r, sl, inv_h, rho_d * h * h * w);
             }
         }
     stiffness_.resize(n, n);

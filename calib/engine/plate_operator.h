@@ -140,6 +140,37 @@ public:
     // Mass weight w of a node (1, 1/2, 1/4; 0 for a fixed node).
     double mass_weight(int i, int j) const;
 
+    // The edge band: nodes within one cell of an edge, whose rows of M^-1 K
+    // differ from the interior 13-point stencil (the engine applies them as
+    // sparse rows; the rest is its bulk kernel).
+    bool in_edge_band(int i, int j) const
+    {
+        return i < 2 || i > grid_.nx - 2 || j < 2 || j > grid_.ny - 2;
+    }
+
+    // K and Gm as the sums they are built from, restricted to the terms that
+    // touch the edge band:  sum_f weight_f (a_f b_f^T + b_f a_f^T) / 2  over
+    // difference stencils ("strains": second differences at nodes, twists at
+    // cell centres, first differences on links). A stencil has small integer
+    // weights on nodes (fixed nodes left out) times one scale (1/h^2 or 1/h),
+    // so applied in float it still annihilates exactly what the difference
+    // annihilates (a free plate's 1, x, y), whatever the rounding of the
+    // weights and scales around it (docs/engine.md, "Rigid-body modes in
+    // float").
+    struct Stencil {
+        std::array<std::size_t, 4> node{};
+        std::array<int, 4> weight{};
+        int count = 0;
+        double scale = 0;
+    };
+    struct FormTerm {
+        std::size_t a = 0, b = 0;  // indices into edge_stencils()
+        double weight = 0;
+    };
+    const std::vector<Stencil> &edge_stencils() const { return edge_stencils_; }
+    const std::vector<FormTerm> &edge_stiffness_terms() const { return edge_stiffness_terms_; }
+    const std::vector<FormTerm> &edge_dirichlet_terms() const { return edge_dirichlet_terms_; }
+
 private:
     void assemble();
 
@@ -152,6 +183,8 @@ private:
     Eigen::VectorXd mass_;
     SparseMatrix stiffness_;
     SparseMatrix dirichlet_;
+    std::vector<Stencil> edge_stencils_;
+    std::vector<FormTerm> edge_stiffness_terms_, edge_dirichlet_terms_;
     mutable double lambda_k_ = -1;
     mutable double lambda_g_ = -1;
 };

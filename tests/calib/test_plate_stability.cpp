@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 using namespace plate_test;
 
@@ -126,4 +127,121 @@ TEST(PlateStability, LanczosAgreesWithTheDenseSolver)
     const double dense = largest_generalized_eigenvalue(op->stiffness(), op->mass(), 100000);
     const double lanczos = largest_generalized_eigenvalue(op->stiffness(), op->mass(), 0);
     EXPECT_NEAR(lanczos / dense, 1.0, 1e-9);
+}
+
+// ---- free plates: the rigid-body modes in float ----
+//
+// A free plate's stiffness annihilates 1, x and y. Applied in float, the
+// operator must annihilate them exactly too: a rounded operator that leaves
+// them an eigenvalue of -1e-10 (of k^2 M^-1 K) grows like exp(1e-5 n).
+
+namespace {
+
+// The glass plate of the command line: 0.1 x 0.1 x 0.002 m, all free,
+// f_max = 2000 Hz at 6 points per (Kirchhoff) wavelength: 6 x 6 cells.
+std::shared_ptr<PlateOperator> free_glass_plate()
+{
+    PlateParams p;
+    p.size_x_m = 0.1;
+    p.size_y_m = 0.1;
+    p.thickness_m = 0.002;
+    p.material = calib::physics::material_from_elastic(1590, 68.9e9, 0.16, "glass");
+    p.edges = Edges::all(EdgeKind::free);
+    const double kappa = p.material.kappa(p.thickness_m);
+    const double wavelength = 2 * std::numbers::pi * std::sqrt(kappa / (2 * std::numbers::pi * 2000));
+    return std::make_shared<PlateOperator>(p, make_grid(0.1, 0.1, wavelength / 6));
+}
+
+}  // namespace
+
+TEST(PlateStabilityRigidModes, TiltedFreePlateAtRestStaysExactlyAtRestInFloat)
+{
+    // u = (3 + 5 i - 7 j) 2^-20 m: every value and every integer-weighted
+    // difference of it is exact in float, so an operator that annihilates
+    // tilts leaves the field bit for bit where it was. (Before the factored
+    // edge rows, the float rows pushed it: 1e-4 of its amplitude in 1000 steps.)
+    for (auto op : {free_glass_plate(), make_plate(16, 13, 0.01, Edges::all(EdgeKind::free))}) {
+        const Grid &g = op->grid();
+        std::vector<double> tilt(g.node_count());
+        for (int j = 0; j <= g.ny; ++j)
+            for (int i = 0; i <= g.nx; ++i)
+                tilt[g.node(i, j)] = std::ldexp(3.0 + 5.0 * i - 7.0 * j, -20);
+        PlateEngine<float> eng(op, 0.99 * op->max_time_step());
+        eng.set_state(tilt, tilt);
+        for (std::size_t n = 0; n < scaled(20000); ++n)
+            eng.step();
+        EXPECT_EQ(eng.displacement(), tilt) << g.nx << " x " << g.ny;
+    }
+}
+
+TEST(PlateStabilityRigidModes, FreeGlassPlateStaysBoundedInFloatOverHalfAMillionSteps)
+{
+    // Random state at rest (no rigid motion): 5e5 float steps (9.3 s of the
+    // command-line plate). Before the mend the rotation modes grew as
+    // exp(3.96e-5 n) (eigenvalue -1.57e-9 of k^2 M^-1 K): x 4e8 here.
+    auto op = free_glass_plate();
+    ASSERT_EQ(op->grid().nx, 6);
+    PlateEngine<float> eng(op, 0.99 * op->max_time_step());
+    eng.set_state(random_field(*op, 4), random_field(*op, 4));
+    const double e0 = eng.energy(), u0 = max_abs(eng.displacement());
+    double worst = 0, umax = 0;
+    ScopedFlushDenormals ftz;
+    for (std::size_t n = 1; n <= scaled(5e5); ++n) {
+        eng.step();
+        if (n % 1000 == 0) {
+            worst = std::max(worst, std::abs(eng.energy() / e0 - 1));
+            umax = std::max(umax, max_abs(eng.displacement()));
+        }
+    }
+    EXPECT_LE(worst, 1e-3);  // round-off random walk (test_stability: c eps sqrt(N))
+    EXPECT_LT(umax, 10 * u0);
+}
+
+TEST(PlateStabilityRigidModes, FreePlateAfterAnImpulseDriftsAsMomentumOverMass)
+{
+    // A 1 N s impulse at (x_s, y_s) gives the free plate momentum 1 N s and
+    // angular momenta x_s, y_s (N m s): sum_n M_n u_n = t and
+    // sum_n M_n x_n u_n = x_s t, exactly, in the discrete scheme (M 1, M x
+    // are left null vectors of K). Over a calibration-length window (0.3 s,
+    // 16 000 steps) float follows it to 2e-3 (it stores a growing absolute
+    // displacement, so its resolution of the drift falls as the plate
+    // travels); double to 1e-9.
+    auto op = free_glass_plate();
+    const double xs = 0.03, ys = 0.04;
+    for (bool is_float : {false, true}) {
+        auto run = [&](auto &eng) {
+            const std::size_t s = eng.add_source(xs, ys);
+            eng.set_source_force(s, 1 / eng.time_step());
+            eng.step();
+            eng.set_source_force(s, 0.0);
+            for (std::size_t n = 1; n < 16000; ++n)
+                eng.step();
+            const double t = 16000 * eng.time_step();
+            const auto u = eng.displacement();
+            double p = 0, lx = 0, ly = 0, mass = 0;
+            const int w = op->grid().nx + 1;
+            for (std::size_t q = 0; q < op->unknown_count(); ++q) {
+                const std::size_t node = op->node_of()[q];
+                const double m = op->mass()[Eigen::Index(q)], x = double(node % std::size_t(w)) * op->grid().h,
+                             y = double(node / std::size_t(w)) * op->grid().h;
+                p += m * u[node];
+                lx += m * x * u[node];
+                ly += m * y * u[node];
+                mass += m;
+            }
+            const double tol = is_float ? 2e-3 : 1e-9;
+            EXPECT_NEAR(p / t, 1.0, tol) << (is_float ? "float" : "double");
+            EXPECT_NEAR(lx / (xs * t), 1.0, tol) << (is_float ? "float" : "double");
+            EXPECT_NEAR(ly / (ys * t), 1.0, tol) << (is_float ? "float" : "double");
+            EXPECT_GT(mass, 0);
+        };
+        ScopedFlushDenormals ftz;
+        if (is_float) {
+            PlateEngine<float> eng(op, 0.99 * op->max_time_step());
+            run(eng);
+        } else {
+            PlateEngine<double> eng(op, 0.99 * op->max_time_step());
+            run(eng);
+        }
+    }
 }

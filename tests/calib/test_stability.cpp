@@ -422,11 +422,11 @@ TEST(StabilityFloat, PlatesWithRigidModesStayQuietOverACalibrationWindow)
 {
     // All free (3 rigid modes) and one simply supported edge with three free
     // (rotation about it): float32 at 0.99 x the bound over 2e5 steps, more
-    // than a 0.2 s window at the finest paper grid. Measured beyond that (the
-    // soak): all-free float32 grows exponentially, ~1.07e-5 per step
-    // (e-folding 9e4 steps; 1e-3 of the energy near 1e6 steps, overflow by
-    // 1e7): the float-rounded operator has a slightly negative eigenvalue
-    // next to the rigid modes. Double does not (test_plate_stability).
+    // than a 0.2 s window at the finest paper grid; the soak runs the all-free
+    // plate 1e7 steps. (Edge rows rounded as assembled matrix rows once gave
+    // the rotation modes eigenvalues ~ -1e-10 and exponential growth, 1.07e-5
+    // per step; the factored edge rows keep them exact: test_plate_stability,
+    // PlateStabilityRigidModes.)
     for (const Edges &e : {Edges::all(EdgeKind::free),
                            Edges{EdgeKind::simply_supported, EdgeKind::free, EdgeKind::free, EdgeKind::free}}) {
         auto op = make_plate(16, 13, 0.01, e);
