@@ -509,13 +509,12 @@ static int run_script(struct daemon *d, struct script s)
     hd_engine_start_at(&d->engine, (uint64_t)primed, 0); /* unpaced: no rewinds, sample-exact starts */
     size_t next = 0;
     uint64_t tail = d->opt.tail_frames, rc = 0;
-    while (next < s.count || hd_player_active(&d->engine.player) > 0 || tail > 0) {
+    while (next < s.count || !hd_engine_idle(&d->engine) || tail > 0) {
         while (next < s.count && (uint64_t)s.events[next].frame <= hd_engine_frame(&d->engine)) {
             s.events[next].t_ns = hd_now_ns();
             hd_spsc_push(&d->engine.ring, &s.events[next++]);
         }
-        int busy = next < s.count || hd_player_active(&d->engine.player) > 0 ||
-                   atomic_load(&d->engine.ring.tail) != atomic_load(&d->engine.ring.head);
+        int busy = next < s.count || !hd_engine_idle(&d->engine);
         if (!busy)
             tail = tail > d->audio.period_frames ? tail - d->audio.period_frames : 0;
         int err = audio_step(d);
@@ -618,9 +617,7 @@ static void stop_live(struct daemon *d, pthread_t audio, pthread_t trig)
     if (!d->opt.drop) {
         /* Drain: the voices already playing finish (bounded by one signal
          * length, and by 5 s), then the queued buffer plays out. */
-        for (int i = 0; i < 500 && (hd_player_active(&d->engine.player) > 0 ||
-                                    atomic_load(&d->engine.ring.tail) != atomic_load(&d->engine.ring.head));
-             i++) {
+        for (int i = 0; i < 500 && !hd_engine_idle(&d->engine); i++) {
             struct timespec ts = {0, 10000000};
             nanosleep(&ts, NULL);
         }

@@ -376,7 +376,7 @@ static void trigger_storm_bounded_memory(void **state)
     assert_int_equal(pthread_create(&th, NULL, storm_producer, &s), 0);
     uint64_t periods = 0;
     hd_engine_start_at(&e, 2 * P, 2 * P);
-    while (!atomic_load(&s.done) || atomic_load(&e.ring.tail) != atomic_load(&e.ring.head)) {
+    while (!atomic_load(&s.done) || !hd_spsc_empty(&e.ring)) {
         hd_engine_period(&e, out, P);
         hd_engine_written(&e, hd_now_ns());
         periods++;
@@ -401,6 +401,55 @@ static void trigger_storm_bounded_memory(void **state)
     fw_table_free(&t);
 }
 
+/* The ring: peeked events stay in it until released, so a thread that sees
+ * it empty knows the consumer has counted them. */
+static void ring_peek_and_release(void **state)
+{
+    (void)state;
+    static struct hd_spsc r;
+    hd_spsc_init(&r);
+    assert_true(hd_spsc_empty(&r));
+    for (uint32_t i = 0; i < 3; i++) {
+        struct hd_event ev = {.frame = -1, .focus_count = 1, .focus_ids = {i}};
+        assert_true(hd_spsc_push(&r, &ev));
+    }
+    struct hd_event ev;
+    assert_true(hd_spsc_peek(&r, 2, &ev));
+    assert_int_equal(ev.focus_ids[0], 2);
+    assert_false(hd_spsc_peek(&r, 3, &ev));
+    hd_spsc_release(&r, 2);
+    assert_false(hd_spsc_empty(&r));
+    assert_true(hd_spsc_pop(&r, &ev));
+    assert_int_equal(ev.focus_ids[0], 2);
+    assert_true(hd_spsc_empty(&r));
+    assert_false(hd_spsc_pop(&r, &ev));
+}
+
+/* What the main thread's drain waits for, from the published state only:
+ * busy while an event waits and while its voice has frames to render. */
+static void idle_after_the_last_voice(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 1, 100, FW_RANDOM, 1000, 41);
+    struct hd_board b;
+    struct hd_program *p = program(&t, &b);
+    struct hd_engine e;
+    assert_int_equal(hd_engine_init(&e, &b, p, 0), 0);
+    int32_t out[P * C];
+    assert_true(hd_engine_idle(&e));
+    push(&e, 1, &t.ids[0]);
+    assert_false(hd_engine_idle(&e)); /* in the ring */
+    hd_engine_period(&e, out, P);     /* frames 0..63 of 100 */
+    assert_false(hd_engine_idle(&e)); /* out of the ring, counted as a voice */
+    assert_int_equal(atomic_load(&e.stats.active_voices), 1);
+    hd_engine_period(&e, out, P);     /* frames 64..127: the voice ends at 100 */
+    assert_true(hd_engine_idle(&e));
+    assert_int_equal(atomic_load(&e.stats.active_voices), 0);
+    hd_engine_free(&e);
+    fw_table_free(&t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -412,6 +461,8 @@ int main(void)
         cmocka_unit_test(rewind_into_an_ended_voice),
         cmocka_unit_test(slot_of_a_voice_in_reach_is_kept),
         cmocka_unit_test(trigger_storm_bounded_memory),
+        cmocka_unit_test(ring_peek_and_release),
+        cmocka_unit_test(idle_after_the_last_voice),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
