@@ -7,14 +7,11 @@
 #ifndef HD_BOARD_H
 #define HD_BOARD_H
 
+#include "hd_defs.h"
+
 #include <stdbool.h>
 #include <stdint.h>
 
-#define HD_MAX_CHANNELS 32u       /* ALSA channels (= HAPTIC_TABLE_MAX_CHANNELS) */
-#define HD_MAX_LINES 32u          /* GPIO trigger lines per board */
-#define HD_MAX_EVENT_FOCI 16u     /* foci one trigger may select */
-#define HD_PATH_MAX 512u
-#define HD_ERR_MAX 1400u
 
 enum hd_sample_format { HD_FMT_S16_LE = 1, HD_FMT_S32_LE = 2 };
 enum hd_bias { HD_BIAS_AS_IS = 0, HD_BIAS_DISABLE, HD_BIAS_PULL_UP, HD_BIAS_PULL_DOWN };

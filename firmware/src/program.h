@@ -4,6 +4,7 @@
 #ifndef HD_PROGRAM_H
 #define HD_PROGRAM_H
 
+#include "hd_defs.h"
 #include "board.h"
 
 #include <haptic_table.h>
