@@ -45,6 +45,18 @@ struct hd_board {
     unsigned lockout_ms;
     unsigned line_count;
     struct hd_line lines[HD_MAX_LINES];
+    /* [touch] */
+    struct hd_touch_board {
+        bool enabled;                  /* the section is present */
+        char device[HD_PATH_MAX];      /* evdev node, or "" */
+        char name[128];                /* or: match this in the device name, "" */
+        bool has_area;
+        double area_m[4];              /* x0, y0, x1, y1 */
+        unsigned calib_set;            /* bit k: calib_{k+1} given */
+        double calib[3][4];            /* panel_x, panel_y, plate_x_m, plate_y_m */
+        double max_distance_m;
+        double hysteresis_m;
+    } touch;
     /* [mixer] */
     double gain_limit;             /* upper bound of the mix gain g (1 = table full scale) */
     /* [table] */

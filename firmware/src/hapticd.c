@@ -17,6 +17,7 @@
 #include "script.h"
 #include "stats.h"
 #include "trigger.h"
+#include "trigger_evdev.h"
 #include "trigger_gpiod.h"
 #include "trigger_loop.h"
 
@@ -36,7 +37,7 @@
 #include <unistd.h>
 
 struct options {
-    const char *board, *table, *triggers, *script, *alsa_device, *latency_report;
+    const char *board, *table, *triggers, *script, *alsa_device, *latency_report, *touch_device;
     int rt_priority;          /* -1: from the board */
     unsigned tail_frames;
     int drop;                 /* SIGTERM: drop instead of drain */
@@ -51,6 +52,9 @@ struct daemon {
     struct hd_trigger trigger;
     struct hd_gpio gpio;
     int have_gpio;
+    struct hd_evdev evdev;
+    struct hd_touch touch;
+    int have_touch;
     int stop_pipe[2];
     struct hd_trigger_loop triggers;
     struct hd_audio_loop player;
@@ -61,7 +65,7 @@ struct daemon {
 static void usage(FILE *f)
 {
     fprintf(f, "usage: hapticd --board boards/NAME/board.ini [--table FILE.htab] [--triggers -|FIFO]\n"
-               "               [--script FILE] [--alsa-device PCM] [--rt-priority N] [--drop]\n"
+               "               [--script FILE] [--alsa-device PCM] [--touch-device PATH] [--rt-priority N] [--drop]\n"
                "               [--tail-frames N] [--latency-report FILE|-] [--syslog]\n"
                "       hapticd --check FILE.htab\n");
 }
@@ -130,6 +134,7 @@ static int parse_args(int argc, char **argv, struct options *o)
         {"board", required_argument, 0, 'b'},        {"table", required_argument, 0, 't'},
         {"triggers", required_argument, 0, 'T'},     {"script", required_argument, 0, 's'},
         {"alsa-device", required_argument, 0, 'D'},  {"rt-priority", required_argument, 0, 'p'},
+        {"touch-device", required_argument, 0, 'U'},
         {"tail-frames", required_argument, 0, 'f'},  {"latency-report", required_argument, 0, 'L'},
         {"drop", no_argument, 0, 'd'},               {"syslog", no_argument, 0, 'S'},
         {"help", no_argument, 0, 'h'},               {0, 0, 0, 0},
@@ -145,6 +150,7 @@ static int parse_args(int argc, char **argv, struct options *o)
         case 'T': o->triggers = optarg; break;
         case 's': o->script = optarg; break;
         case 'D': o->alsa_device = optarg; break;
+        case 'U': o->touch_device = optarg; break;
         case 'L': o->latency_report = optarg; break;
         case 'd': o->drop = 1; break;
         case 'S': o->use_syslog = 1; break;
@@ -177,6 +183,36 @@ static int parse_args(int argc, char **argv, struct options *o)
         return 2;
     }
     return 0;
+}
+
+/* The touchscreen plays the foci of the table loaded at start, at the
+ * positions that table gives them. */
+static int open_touch(struct daemon *d, char err[HD_ERR_MAX])
+{
+    const haptic_table *t = &d->engine.current->table;
+    uint32_t *ids = calloc(t->focus_count ? t->focus_count : 1, sizeof *ids);
+    double *xy = calloc(2 * (size_t)(t->focus_count ? t->focus_count : 1), sizeof *xy);
+    int rc = ids && xy ? 0 : -ENOMEM;
+    for (uint32_t f = 0; rc == 0 && f < t->focus_count; f++) {
+        haptic_focus_info info;
+        if (haptic_table_focus(t, f, &info) != 0)
+            rc = -EINVAL;
+        ids[f] = info.id;
+        xy[2 * f] = info.x_m;
+        xy[2 * f + 1] = info.y_m;
+    }
+    if (rc == 0)
+        rc = hd_evdev_open(&d->evdev, &d->board.touch, d->board.path, d->opt.touch_device, &d->touch,
+                           t->focus_count, ids, xy, err);
+    else
+        snprintf(err, HD_ERR_MAX, "touch input: %s", strerror(-rc));
+    free(ids);
+    free(xy);
+    if (rc == 0)
+        hd_log(LOG_INFO, "touch device %s ('%s'): %s, %u foci, max_distance %.3f m, hysteresis %.4f m",
+               d->evdev.path, d->evdev.name, d->touch.multitouch ? "multi-touch (protocol B)" : "single touch",
+               d->touch.focus_count, d->touch.max_distance_m, d->touch.hysteresis_m);
+    return rc;
 }
 
 static int open_host_triggers(struct daemon *d)
@@ -365,6 +401,18 @@ int main(int argc, char **argv)
         }
         d.have_gpio = 1;
     }
+    if (d.opt.touch_device && !d.board.touch.enabled) {
+        hd_log(LOG_ERR, "--touch-device %s: the board %s has no [touch] section (the panel -> plate map)",
+               d.opt.touch_device, d.board.path);
+        goto out_gpio;
+    }
+    if (d.board.touch.enabled) {
+        if (open_touch(&d, err) != 0) {
+            hd_log(LOG_ERR, "%s", err);
+            goto out_gpio;
+        }
+        d.have_touch = 1;
+    }
     if (open_host_triggers(&d) != 0 || pipe2(d.stop_pipe, O_CLOEXEC) != 0)
         goto out_gpio;
     d.player.trigger_efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
@@ -387,6 +435,8 @@ int main(int argc, char **argv)
         .host_fd = d.triggers.host_fd,
         .host_name = d.opt.triggers,
         .gpio = d.have_gpio ? &d.gpio : NULL,
+        .evdev = d.have_touch ? &d.evdev : NULL,
+        .touch = &d.touch,
         .trigger = &d.trigger,
         .push = push_trigger,
         .push_ctx = &d,
@@ -398,6 +448,8 @@ int main(int argc, char **argv)
 out_gpio:
     if (d.have_gpio)
         hd_gpio_close(&d.gpio);
+    if (d.have_touch)
+        hd_evdev_close(&d.evdev);
     if (d.triggers.host_fd > STDIN_FILENO)
         close(d.triggers.host_fd);
     for (int i = 0; i < 2; i++)

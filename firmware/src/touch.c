@@ -7,18 +7,17 @@
 #include <math.h>
 #include <string.h>
 
-int hd_touch_map_from_points(const double panel[3][2], const double plate[3][2], struct hd_touch_map *out)
+int hd_touch_map_from_points(const double *panel, const double *plate, struct hd_touch_map *out)
 {
     /* Solve [px py 1] * [a b c]^T = plate_x (and _y) for the three points by
      * Cramer's rule; the determinant is twice the panel triangle's area. */
-    const double x1 = panel[0][0], y1 = panel[0][1], x2 = panel[1][0], y2 = panel[1][1];
-    const double x3 = panel[2][0], y3 = panel[2][1];
+    const double x1 = panel[0], y1 = panel[1], x2 = panel[2], y2 = panel[3], x3 = panel[4], y3 = panel[5];
     const double det = x1 * (y2 - y3) - y1 * (x2 - x3) + (x2 * y3 - x3 * y2);
     const double span = fmax(fmax(fabs(x2 - x1), fabs(x3 - x1)), fmax(fabs(y2 - y1), fabs(y3 - y1)));
     if (!(fabs(det) > 1e-9 * span * span) || !isfinite(det))
         return -EINVAL;
     for (int k = 0; k < 2; k++) {
-        const double v1 = plate[0][k], v2 = plate[1][k], v3 = plate[2][k];
+        const double v1 = plate[k], v2 = plate[2 + k], v3 = plate[4 + k];
         out->m[3 * k + 0] = (v1 * (y2 - y3) - y1 * (v2 - v3) + (v2 * y3 - v3 * y2)) / det;
         out->m[3 * k + 1] = (x1 * (v2 - v3) - v1 * (x2 - x3) + (x2 * v3 - x3 * v2)) / det;
         out->m[3 * k + 2] = (x1 * (y2 * v3 - y3 * v2) - y1 * (x2 * v3 - x3 * v2) + v1 * (x2 * y3 - x3 * y2)) / det;

@@ -36,9 +36,10 @@ struct hd_touch_map {
     double m[6];
 };
 
-/* The affine map through three point pairs panel[k] -> plate[k]. Returns 0,
- * or -EINVAL when the panel points are (nearly) collinear. */
-int hd_touch_map_from_points(const double panel[3][2], const double plate[3][2], struct hd_touch_map *out);
+/* The affine map through three point pairs panel -> plate, each given as
+ * x0, y0, x1, y1, x2, y2. Returns 0, or -EINVAL when the panel points are
+ * (nearly) collinear. */
+int hd_touch_map_from_points(const double *panel_xy, const double *plate_xy, struct hd_touch_map *out);
 /* The panel's range [x_min, x_max] x [y_min, y_max] onto the plate rectangle
  * area = {x0, y0, x1, y1}. Returns -EINVAL for an empty range. */
 int hd_touch_map_from_area(int32_t x_min, int32_t x_max, int32_t y_min, int32_t y_max, const double area[4],

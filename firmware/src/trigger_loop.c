@@ -7,6 +7,7 @@
 
 #include <errno.h>
 #include <poll.h>
+#include <stdint.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -92,20 +93,41 @@ static void gpio_ready(struct hd_trigger_loop *l, unsigned i, short revents)
     }
 }
 
+static void touch_gone(struct hd_trigger_loop *l, int err)
+{
+    hd_log(LOG_ERR, "touch device %s ('%s') gone (%s): hapticd keeps running on its other triggers and looks "
+           "for it again every second", l->evdev->path, l->evdev->name, strerror(-err));
+    hd_evdev_close(l->evdev);
+    hd_touch_lost(l->touch);
+}
+
+static void touch_retry(struct hd_trigger_loop *l, uint64_t *last_try_ns)
+{
+    uint64_t now = hd_now_ns();
+    if (now - *last_try_ns < 1000000000u)
+        return;
+    *last_try_ns = now;
+    if (hd_evdev_reopen(l->evdev, l->touch) == 0)
+        hd_log(LOG_INFO, "touch device %s ('%s') is back", l->evdev->path, l->evdev->name);
+}
+
 void *hd_trigger_loop_run(void *arg)
 {
     struct hd_trigger_loop *l = arg;
     struct line_reader reader = {.len = 0};
-    struct pollfd pfd[2 + HD_MAX_LINES];
+    struct pollfd pfd[3 + HD_MAX_LINES];
     int host_open = l->host_fd >= 0;
     const unsigned lines = l->gpio ? l->gpio->count : 0;
+    uint64_t touch_tried_ns = 0;
     for (;;) {
         nfds_t n = 0;
+        const int touch_fd = l->evdev ? l->evdev->fd : -1;
         pfd[n++] = (struct pollfd){.fd = l->stop_fd, .events = POLLIN};
         pfd[n++] = (struct pollfd){.fd = host_open ? l->host_fd : -1, .events = POLLIN};
+        pfd[n++] = (struct pollfd){.fd = touch_fd, .events = POLLIN};
         for (unsigned i = 0; i < lines; i++)
             pfd[n++] = (struct pollfd){.fd = l->health.dead[i] ? -1 : l->gpio->fds[i], .events = POLLIN};
-        if (poll(pfd, n, -1) < 0) {
+        if (poll(pfd, n, l->evdev && touch_fd < 0 ? 1000 : -1) < 0) {
             if (errno == EINTR)
                 continue;
             hd_log(LOG_ERR, "trigger poll: %s", strerror(errno));
@@ -117,8 +139,17 @@ void *hd_trigger_loop_run(void *arg)
             hd_log(LOG_INFO, "trigger input %s closed", l->host_name);
             host_open = 0;
         }
+        if (touch_fd >= 0 && pfd[2].revents) {
+            int rc = hd_evdev_read(l->evdev, l->touch, l->push, l->push_ctx);
+            if (rc == 0 && (pfd[2].revents & (POLLERR | POLLHUP | POLLNVAL)))
+                rc = -ENODEV;
+            if (rc < 0)
+                touch_gone(l, rc);
+        } else if (l->evdev && touch_fd < 0) {
+            touch_retry(l, &touch_tried_ns);
+        }
         for (unsigned i = 0; i < lines; i++)
             if (!l->health.dead[i])
-                gpio_ready(l, i, pfd[2 + i].revents);
+                gpio_ready(l, i, pfd[3 + i].revents);
     }
 }

@@ -75,7 +75,7 @@ static void maps(void **state)
     const double panel[3][2] = {{0, 0}, {4000, 0}, {0, 3000}};
     const double plate[3][2] = {{0.010, 0.690}, {0.690, 0.690}, {0.010, 0.010}};
     struct hd_touch_map m;
-    assert_int_equal(hd_touch_map_from_points(panel, plate, &m), 0);
+    assert_int_equal(hd_touch_map_from_points(&panel[0][0], &plate[0][0], &m), 0);
     double x, y;
     hd_touch_map_apply(&m, 2000, 1500, &x, &y); /* the centre */
     assert_true(fabs(x - 0.35) < 1e-12 && fabs(y - 0.35) < 1e-12);
@@ -85,12 +85,12 @@ static void maps(void **state)
     assert_true(fabs(x - 0.18) < 1e-12 && fabs(y - 0.554) < 1e-12);
     /* A panel rotated by 90 degrees: panel x runs along plate y. */
     const double rot_plate[3][2] = {{0.0, 0.0}, {0.0, 0.4}, {0.3, 0.0}};
-    assert_int_equal(hd_touch_map_from_points(panel, rot_plate, &m), 0);
+    assert_int_equal(hd_touch_map_from_points(&panel[0][0], &rot_plate[0][0], &m), 0);
     hd_touch_map_apply(&m, 1000, 1500, &x, &y); /* y = 0.4 * 1000/4000, x = 0.3 * 1500/3000 */
     assert_true(fabs(x - 0.15) < 1e-12 && fabs(y - 0.1) < 1e-12);
     /* Collinear points cannot fix a map. */
     const double line[3][2] = {{0, 0}, {1000, 1000}, {3000, 3000}};
-    assert_int_equal(hd_touch_map_from_points(line, plate, &m), -EINVAL);
+    assert_int_equal(hd_touch_map_from_points(&line[0][0], &plate[0][0], &m), -EINVAL);
     /* Area: panel 0..1000 x 0..500 onto [0.1, 0.6] x [0.2, 0.7]. */
     const double area[4] = {0.1, 0.2, 0.6, 0.7};
     assert_int_equal(hd_touch_map_from_area(0, 1000, 0, 500, area, &m), 0);
