@@ -59,6 +59,8 @@ struct daemon {
     struct hd_trigger_loop triggers;
     struct hd_audio_loop player;
     atomic_int accepting;     /* the trigger thread's events are taken */
+    struct hd_latency_chain chain; /* touch -> focal peak, for the current table */
+    int rewind_at_start;      /* the PCM rewinds (probed before the threads start) */
     double buffer_latency_s;  /* as granted by ALSA */
 };
 
@@ -94,6 +96,22 @@ static void push_trigger(void *ctx, const struct hd_event *ev)
         hd_log(LOG_WARNING, "trigger wake-up: %s", strerror(errno));
 }
 
+/* The fixed parts of touch -> focal peak for program p (stats.h). The
+ * audio thread may switch rewinding off (it owns d->audio then): the main
+ * thread reads that from the published rewind_error only. */
+static void chain_for(struct daemon *d, const struct hd_program *p, int rewinding)
+{
+    const double rate = d->audio.rate_hz;
+    if (rewinding && !atomic_load(&d->engine.stats.rewind_error)) {
+        d->chain.queue_s = (double)d->audio.rewind_margin / rate;
+        d->chain.queue_why = "rewind margin";
+    } else {
+        d->chain.queue_s = (double)d->audio.buffer_frames / rate;
+        d->chain.queue_why = d->opt.script ? "scripted: the buffer" : "no rewinding: the buffer";
+    }
+    d->chain.lead_s = hd_program_lead_time_s(p);
+}
+
 static const char *table_path(const struct daemon *d)
 {
     return d->opt.table ? d->opt.table : d->board.table_path;
@@ -124,6 +142,8 @@ static void reload(struct daemon *d)
     }
     hd_log(LOG_INFO, "reloaded %s (%u foci, %u channels, %u samples)", table_path(d), p->focus_count,
            p->channel_count, p->samples);
+    chain_for(d, p, d->rewind_at_start);
+    hd_stats_log_chain(table_path(d), &d->chain);
 }
 
 /* ---- main ---- */
@@ -282,6 +302,9 @@ static int run_live(struct daemon *d)
     } else {
         hd_log(LOG_INFO, "[alsa] rewind = false: triggers start at the next period boundary");
     }
+    d->rewind_at_start = d->audio.rewind;
+    chain_for(d, d->engine.current, d->rewind_at_start);
+    hd_stats_log_chain(table_path(d), &d->chain);
     hd_engine_start_at(&d->engine, (uint64_t)primed, d->audio.rewind ? (uint32_t)d->audio.buffer_frames : 0);
     atomic_store(&d->player.running, 1);
     atomic_store(&d->accepting, 1);
@@ -388,6 +411,7 @@ int main(int argc, char **argv)
            (unsigned long)d.audio.buffer_frames, 1e3 * (double)d.audio.buffer_frames / d.audio.rate_hz,
            table_path(&d));
     if (d.opt.script) {
+        chain_for(&d, d.engine.current, 0);
         status = hd_audio_loop_script(&d.player, &script, d.opt.tail_frames,
                                       d.opt.alsa_device ? d.opt.alsa_device : d.board.alsa_device);
         hd_audio_close(&d.audio, 1);
@@ -461,7 +485,7 @@ out_gpio:
         close(d.player.timer_fd);
 out_report:
     if (d.opt.latency_report)
-        hd_stats_latency_report(d.opt.latency_report, &d.engine, d.buffer_latency_s);
+        hd_stats_latency_report(d.opt.latency_report, &d.engine, d.buffer_latency_s, &d.chain);
 out_audio:
     hd_audio_close(&d.audio, 0);
     free(d.player.render_buf);

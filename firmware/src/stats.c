@@ -6,6 +6,7 @@
 
 #include <alsa/asoundlib.h>
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -63,7 +64,19 @@ static long rss_kib(const char *field)
     return v;
 }
 
-void hd_stats_latency_report(const char *path, struct hd_engine *e, double buffer_latency_s)
+void hd_stats_log_chain(const char *table_path, const struct hd_latency_chain *c)
+{
+    if (isnan(c->lead_s))
+        hd_log(LOG_INFO, "touch -> focal peak (%s): input path (measured per touch, --latency-report) + queue %.3f ms "
+               "(%s) + lead time unknown (the table does not carry it)", table_path, 1e3 * c->queue_s, c->queue_why);
+    else
+        hd_log(LOG_INFO, "touch -> focal peak (%s): input path (measured per touch, --latency-report) + queue %.3f ms "
+               "(%s) + lead time %.3f ms (table) = %.3f ms + input path", table_path, 1e3 * c->queue_s, c->queue_why,
+               1e3 * c->lead_s, 1e3 * (c->queue_s + c->lead_s));
+}
+
+void hd_stats_latency_report(const char *path, struct hd_engine *e, double buffer_latency_s,
+                             const struct hd_latency_chain *c)
 {
     FILE *f = strcmp(path, "-") ? fopen(path, "w") : stdout;
     if (!f) {
@@ -79,6 +92,16 @@ void hd_stats_latency_report(const char *path, struct hd_engine *e, double buffe
                 l[(uint64_t)n * 99 / 100] / 1e3, l[n - 1] / 1e3);
     }
     fprintf(f, "buffer_latency_ms %.3f\n", 1e3 * buffer_latency_s);
+    fprintf(f, "queue_ahead_ms %.3f\n", 1e3 * c->queue_s);
+    if (isnan(c->lead_s)) {
+        fprintf(f, "lead_time_ms unknown\n");
+    } else {
+        fprintf(f, "lead_time_ms %.3f\n", 1e3 * c->lead_s);
+        if (n) /* the measured part (input path, wake-up, render) plus the two fixed ones */
+            fprintf(f, "touch_to_peak_p50_ms %.3f\ntouch_to_peak_p99_ms %.3f\n",
+                    l[n / 2] / 1e6 + 1e3 * (c->queue_s + c->lead_s),
+                    l[(uint64_t)n * 99 / 100] / 1e6 + 1e3 * (c->queue_s + c->lead_s));
+    }
     /* RssAnon: heap, stacks and the table buffer; RssFile: mapped libraries. */
     fprintf(f, "vm_rss_kib %ld\nvm_hwm_kib %ld\nrss_anon_kib %ld\nrss_file_kib %ld\n", rss_kib("VmRSS:"),
             rss_kib("VmHWM:"), rss_kib("RssAnon:"), rss_kib("RssFile:"));

@@ -378,6 +378,11 @@ static void live_triggers(int rewind)
     close(fd);
     assert_true(file_contains(err, rewind ? "triggers start at once" : "rewind = false"));
     assert_int_equal(report_value(report, "triggers"), triggers);
+    /* The fixed part of touch -> focal peak: 32 of 48000 frames kept ahead of a
+     * rewound voice, else the 128-frame buffer; the table has no lead time. */
+    assert_true(file_contains(report, rewind ? "queue_ahead_ms 0.667\n" : "queue_ahead_ms 2.667\n"));
+    assert_true(file_contains(report, "lead_time_ms unknown\n"));
+    assert_true(file_contains(err, rewind ? "queue 0.667 ms (rewind margin)" : "queue 2.667 ms (no rewinding"));
     long rewinds = report_value(report, "rewinds");
     if (rewind)
         assert_true(rewinds >= 1 && rewinds <= triggers); /* a late audio thread may leave none to rewind */
