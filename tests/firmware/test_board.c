@@ -2,6 +2,7 @@
 #include "board.h"
 
 #include <errno.h>
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -245,6 +246,13 @@ static void shipped_boards_parse(void **state)
             assert_int_equal(b.pacing, HD_PACE_DEVICE);
             assert_true(b.line_count >= 3);
             assert_true(strncmp(b.alsa_device, "hw:", 3) == 0); /* hw:, never dmix */
+        }
+        assert_int_equal(b.touch.enabled, i == 2); /* the Pi 5 example has a touchscreen */
+        if (b.touch.enabled) {
+            /* Its three corners map the 800 x 480 screen onto 154.2 x 85.9 mm of plate. */
+            assert_int_equal(b.touch.calib_set, 7);
+            assert_true(fabs(b.touch.calib[0][2] - b.touch.calib[1][2] - 0.1542) < 1e-9);
+            assert_true(fabs(b.touch.calib[0][3] - b.touch.calib[2][3] - 0.0859) < 1e-9);
         }
     }
 }
