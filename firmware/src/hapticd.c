@@ -142,6 +142,14 @@ static void reload(struct daemon *d)
     }
     hd_log(LOG_INFO, "reloaded %s (%u foci, %u channels, %u samples)", table_path(d), p->focus_count,
            p->channel_count, p->samples);
+    if (d->have_touch) {
+        /* The touchscreen takes the new foci at its next event. */
+        struct hd_touch_foci *f = hd_touch_foci_of(&p->table);
+        if (!f)
+            hd_log(LOG_ERR, "touch input keeps the previous foci: out of memory");
+        else
+            free(atomic_exchange(&d->triggers.next_foci, f));
+    }
     chain_for(d, p, d->rewind_at_start);
     hd_stats_log_chain(table_path(d), &d->chain);
 }
@@ -205,29 +213,18 @@ static int parse_args(int argc, char **argv, struct options *o)
     return 0;
 }
 
-/* The touchscreen plays the foci of the table loaded at start, at the
- * positions that table gives them. */
+/* The touchscreen plays the table's foci at the positions the table gives
+ * them; a reload hands it the new ones (reload()). */
 static int open_touch(struct daemon *d, char err[HD_ERR_MAX])
 {
-    const haptic_table *t = &d->engine.current->table;
-    uint32_t *ids = calloc(t->focus_count ? t->focus_count : 1, sizeof *ids);
-    double *xy = calloc(2 * (size_t)(t->focus_count ? t->focus_count : 1), sizeof *xy);
-    int rc = ids && xy ? 0 : -ENOMEM;
-    for (uint32_t f = 0; rc == 0 && f < t->focus_count; f++) {
-        haptic_focus_info info;
-        if (haptic_table_focus(t, f, &info) != 0)
-            rc = -EINVAL;
-        ids[f] = info.id;
-        xy[2 * f] = info.x_m;
-        xy[2 * f + 1] = info.y_m;
+    struct hd_touch_foci *f = hd_touch_foci_of(&d->engine.current->table);
+    if (!f) {
+        snprintf(err, HD_ERR_MAX, "touch input: out of memory");
+        return -ENOMEM;
     }
-    if (rc == 0)
-        rc = hd_evdev_open(&d->evdev, &d->board.touch, d->board.path, d->opt.touch_device, &d->touch,
-                           t->focus_count, ids, xy, err);
-    else
-        snprintf(err, HD_ERR_MAX, "touch input: %s", strerror(-rc));
-    free(ids);
-    free(xy);
+    int rc = hd_evdev_open(&d->evdev, &d->board.touch, d->board.path, d->opt.touch_device, &d->touch, f->count,
+                           f->id, f->xy_m, err);
+    free(f);
     if (rc == 0)
         hd_log(LOG_INFO, "touch device %s ('%s'): %s, %u foci, max_distance %.3f m, hysteresis %.4f m",
                d->evdev.path, d->evdev.name, d->touch.multitouch ? "multi-touch (protocol B)" : "single touch",
@@ -474,6 +471,7 @@ out_gpio:
         hd_gpio_close(&d.gpio);
     if (d.have_touch)
         hd_evdev_close(&d.evdev);
+    free(atomic_exchange(&d.triggers.next_foci, NULL));
     if (d.triggers.host_fd > STDIN_FILENO)
         close(d.triggers.host_fd);
     for (int i = 0; i < 2; i++)

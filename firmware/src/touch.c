@@ -47,6 +47,21 @@ static void clear_contacts(struct hd_touch_contact *c)
         c[s] = (struct hd_touch_contact){.tracking_id = -1, .focus = -1};
 }
 
+int hd_touch_set_foci(struct hd_touch *t, uint32_t focus_count, const uint32_t *focus_id, const double *focus_xy_m)
+{
+    if (focus_count > HD_TOUCH_MAX_FOCI)
+        return -E2BIG;
+    t->focus_count = focus_count;
+    for (uint32_t f = 0; f < focus_count; f++) {
+        t->focus_id[f] = focus_id[f];
+        t->focus_xy_m[f][0] = focus_xy_m[2 * f];
+        t->focus_xy_m[f][1] = focus_xy_m[2 * f + 1];
+    }
+    for (unsigned s = 0; s < HD_TOUCH_SLOTS; s++)
+        t->now[s].focus = t->frame[s].focus = -1;
+    return 0;
+}
+
 int hd_touch_init(struct hd_touch *t, const struct hd_touch_map *map, double max_distance_m, double hysteresis_m,
                   bool multitouch, uint32_t focus_count, const uint32_t *focus_id, const double *focus_xy_m)
 {
@@ -57,15 +72,9 @@ int hd_touch_init(struct hd_touch *t, const struct hd_touch_map *map, double max
     t->max_distance_m = max_distance_m;
     t->hysteresis_m = hysteresis_m;
     t->multitouch = multitouch;
-    t->focus_count = focus_count;
-    for (uint32_t f = 0; f < focus_count; f++) {
-        t->focus_id[f] = focus_id[f];
-        t->focus_xy_m[f][0] = focus_xy_m[2 * f];
-        t->focus_xy_m[f][1] = focus_xy_m[2 * f + 1];
-    }
     clear_contacts(t->now);
     clear_contacts(t->frame);
-    return 0;
+    return hd_touch_set_foci(t, focus_count, focus_id, focus_xy_m);
 }
 
 int32_t hd_touch_nearest(const struct hd_touch *t, double x_m, double y_m, double *distance_m)

@@ -71,6 +71,11 @@ struct hd_touch {
 int hd_touch_init(struct hd_touch *t, const struct hd_touch_map *map, double max_distance_m, double hysteresis_m,
                   bool multitouch, uint32_t focus_count, const uint32_t *focus_id, const double *focus_xy_m);
 
+/* A reloaded table's foci replace the current ones (-E2BIG: too many, the
+ * old ones stay). Contacts stay down but hold no focus: each plays its
+ * nearest focus of the new table at its next frame. */
+int hd_touch_set_foci(struct hd_touch *t, uint32_t focus_count, const uint32_t *focus_id, const double *focus_xy_m);
+
 /* Nearest focus to (x, y) in metres: its index and distance, or -1 with no foci. */
 int32_t hd_touch_nearest(const struct hd_touch *t, double x_m, double y_m, double *distance_m);
 

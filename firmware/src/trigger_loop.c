@@ -8,6 +8,7 @@
 #include <errno.h>
 #include <poll.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -93,6 +94,36 @@ static void gpio_ready(struct hd_trigger_loop *l, unsigned i, short revents)
     }
 }
 
+struct hd_touch_foci *hd_touch_foci_of(const haptic_table *t)
+{
+    const size_t n = t->focus_count;
+    struct hd_touch_foci *f = malloc(sizeof *f + n * sizeof *f->id + 2 * n * sizeof *f->xy_m + sizeof(double));
+    if (!f)
+        return NULL;
+    f->count = (uint32_t)n;
+    f->xy_m = (double *)(f + 1);
+    f->id = (uint32_t *)(f->xy_m + 2 * n);
+    for (uint32_t i = 0; i < n; i++) {
+        haptic_focus_info info = {0};
+        haptic_table_focus(t, i, &info); /* the table is validated: cannot fail */
+        f->id[i] = info.id;
+        f->xy_m[2 * i] = info.x_m;
+        f->xy_m[2 * i + 1] = info.y_m;
+    }
+    return f;
+}
+
+static void take_new_foci(struct hd_trigger_loop *l)
+{
+    struct hd_touch_foci *f = atomic_exchange(&l->next_foci, NULL);
+    if (!f)
+        return;
+    if (hd_touch_set_foci(l->touch, f->count, f->id, f->xy_m) != 0)
+        hd_log(LOG_ERR, "touch input: the reloaded table has %u foci, more than %u: the previous foci stay",
+               f->count, HD_TOUCH_MAX_FOCI);
+    free(f);
+}
+
 static void touch_gone(struct hd_trigger_loop *l, int err)
 {
     hd_log(LOG_ERR, "touch device %s ('%s') gone (%s): hapticd keeps running on its other triggers and looks "
@@ -135,6 +166,8 @@ void *hd_trigger_loop_run(void *arg)
         }
         if (pfd[0].revents)
             return NULL;
+        if (l->evdev)
+            take_new_foci(l);
         if (host_open && (pfd[1].revents & (POLLIN | POLLHUP)) && !host_read(l, &reader)) {
             hd_log(LOG_INFO, "trigger input %s closed", l->host_name);
             host_open = 0;

@@ -297,6 +297,29 @@ static void device_lost(void **state)
     assert_int_equal(ids[0], 100);
 }
 
+static void reloaded_foci(void **state)
+{
+    (void)state;
+    struct hd_touch *t = make(0.05, true);
+    uint32_t ids[HD_MAX_EVENT_FOCI];
+    mt_down(t, 0, 5, 1500, 1500);
+    assert_int_equal(syn(t, ids), 1);
+    assert_int_equal(ids[0], 100);
+    /* A new table: two foci, one of them where the finger rests, renumbered. */
+    const uint32_t new_id[2] = {7, 8};
+    const double new_xy[4] = {0.16, 0.15, 0.60, 0.60};
+    assert_int_equal(hd_touch_set_foci(t, 2, new_id, new_xy), 0);
+    mt_xy(t, 0, 1505, 1500); /* the resting finger's next frame: the new table's focus */
+    assert_int_equal(syn(t, ids), 1);
+    assert_int_equal(ids[0], 7);
+    mt_down(t, 1, 6, 3500, 3500); /* where focus 104 was: 0.28 m from the nearest focus now */
+    assert_int_equal(syn(t, ids), 0);
+    static uint32_t many_id[HD_TOUCH_MAX_FOCI + 1];
+    static double many_xy[2 * (HD_TOUCH_MAX_FOCI + 1)];
+    assert_int_equal(hd_touch_set_foci(t, HD_TOUCH_MAX_FOCI + 1, many_id, many_xy), -E2BIG);
+    assert_int_equal(t->focus_count, 2); /* kept */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -309,6 +332,7 @@ int main(void)
         cmocka_unit_test(single_touch_panel),
         cmocka_unit_test(syn_dropped_resync),
         cmocka_unit_test(device_lost),
+        cmocka_unit_test(reloaded_foci),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
