@@ -3,6 +3,7 @@
 #ifndef HD_AUDIO_ALSA_H
 #define HD_AUDIO_ALSA_H
 
+#include "hd_defs.h"
 #include "board.h"
 
 #include <alsa/asoundlib.h>

@@ -3,10 +3,13 @@
 #define _POSIX_C_SOURCE 200809L
 #include "board.h"
 
+#include "touch.h"
+
 #include <ini.h>
 
 #include <errno.h>
 #include <limits.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,6 +40,8 @@ void hd_board_defaults(struct hd_board *b)
     b->rewind_margin_frames = 32;
     b->lockout_ms = 50;
     b->gain_limit = 1.0;
+    b->touch.max_distance_m = 0.05;
+    b->touch.hysteresis_m = 0.005;
     b->rt_priority = 80;
     b->mlock = true;
 }
@@ -247,6 +252,63 @@ static int line_key(struct parse_ctx *c, const char *section, const char *name, 
     return bad(c, section, name, "unknown key");
 }
 
+/* "a, b, c" -> exactly n finite numbers. */
+static int parse_doubles(const char *s, double *out, unsigned n)
+{
+    const char *p = s;
+    for (unsigned i = 0; i < n; i++) {
+        char *end;
+        errno = 0;
+        double v = strtod(p, &end);
+        if (errno || end == p || !isfinite(v))
+            return -EINVAL;
+        out[i] = v;
+        p = end;
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (i + 1 < n) {
+            if (*p != ',')
+                return -EINVAL;
+            p++;
+        }
+    }
+    return *p ? -EINVAL : 0;
+}
+
+static int touch_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
+{
+    struct hd_touch_board *t = &c->b->touch;
+    if (!strcmp(name, "device")) {
+        if (value[0] != '/')
+            return bad(c, section, name, "'%s' is not an absolute path (e.g. /dev/input/event0)", value);
+        return copy_str(c, section, name, t->device, sizeof t->device, value);
+    }
+    if (!strcmp(name, "name"))
+        return copy_str(c, section, name, t->name, sizeof t->name, value);
+    if (!strcmp(name, "area_m")) {
+        if (parse_doubles(value, t->area_m, 4) || t->area_m[0] == t->area_m[2] || t->area_m[1] == t->area_m[3])
+            return bad(c, section, name, "'%s' is not x0,y0,x1,y1 in metres with x0 != x1 and y0 != y1", value);
+        t->has_area = true;
+        return 1;
+    }
+    if (!strncmp(name, "calib_", 6) && name[6] >= '1' && name[6] <= '3' && !name[7]) {
+        unsigned k = (unsigned)(name[6] - '1');
+        if (parse_doubles(value, t->calib[k], 4))
+            return bad(c, section, name, "'%s' is not panel_x,panel_y,plate_x_m,plate_y_m", value);
+        t->calib_set |= 1u << k;
+        return 1;
+    }
+    if (!strcmp(name, "max_distance_m") || !strcmp(name, "hysteresis_m")) {
+        bool max = name[0] == 'm';
+        double v;
+        if (parse_doubles(value, &v, 1) || (max ? !(v > 0 && v <= 10) : !(v >= 0 && v <= 1)))
+            return bad(c, section, name, "'%s' is not a number in %s", value, max ? "(0, 10]" : "[0, 1]");
+        *(max ? &t->max_distance_m : &t->hysteresis_m) = v;
+        return 1;
+    }
+    return bad(c, section, name, "unknown key");
+}
+
 static int handler(void *user, const char *section, const char *name, const char *value)
 {
     struct parse_ctx *c = user;
@@ -255,6 +317,10 @@ static int handler(void *user, const char *section, const char *name, const char
         return alsa_key(c, section, name, value);
     if (!strncmp(section, "line ", 5))
         return line_key(c, section, name, value);
+    if (!strcmp(section, "touch")) {
+        b->touch.enabled = true;
+        return touch_key(c, section, name, value);
+    }
     if (!strcmp(section, "gpio")) {
         if (!strcmp(name, "chip"))
             return copy_str(c, section, name, b->gpio_chip, sizeof b->gpio_chip, value);
@@ -319,6 +385,28 @@ static int cross_check(struct parse_ctx *c)
         snprintf(sec, sizeof sec, "line %u", b->lines[i].offset);
         if (b->lines[i].focus_count == 0)
             return bad(c, sec, "foci", "missing (each line plays at least one focus)");
+    }
+    const struct hd_touch_board *t = &b->touch;
+    if (t->enabled) {
+        if (!t->device[0] == !t->name[0])
+            return bad(c, "touch", "device", "give exactly one of [touch] device and [touch] name");
+        if (t->calib_set && t->calib_set != 7)
+            return bad(c, "touch", t->calib_set & 1 ? (t->calib_set & 2 ? "calib_3" : "calib_2") : "calib_1",
+                       "missing (calib_1, calib_2 and calib_3 go together)");
+        if (!t->calib_set && !t->has_area)
+            return bad(c, "touch", "area_m", "missing: give area_m or calib_1..calib_3");
+        if (t->calib_set) {
+            double panel[6], plate[6];
+            struct hd_touch_map m;
+            for (int k = 0; k < 3; k++) {
+                panel[2 * k] = t->calib[k][0];
+                panel[2 * k + 1] = t->calib[k][1];
+                plate[2 * k] = t->calib[k][2];
+                plate[2 * k + 1] = t->calib[k][3];
+            }
+            if (hd_touch_map_from_points(panel, plate, &m))
+                return bad(c, "touch", "calib_3", "the three panel points are collinear: no map");
+        }
     }
     if (b->line_count > 0 && !b->gpio_chip[0])
         return bad(c, "gpio", "chip", "missing but [line N] sections are present");

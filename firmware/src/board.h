@@ -7,14 +7,11 @@
 #ifndef HD_BOARD_H
 #define HD_BOARD_H
 
+#include "hd_defs.h"
+
 #include <stdbool.h>
 #include <stdint.h>
 
-#define HD_MAX_CHANNELS 32u       /* ALSA channels (= HAPTIC_TABLE_MAX_CHANNELS) */
-#define HD_MAX_LINES 32u          /* GPIO trigger lines per board */
-#define HD_MAX_EVENT_FOCI 16u     /* foci one trigger may select */
-#define HD_PATH_MAX 512u
-#define HD_ERR_MAX 1400u
 
 enum hd_sample_format { HD_FMT_S16_LE = 1, HD_FMT_S32_LE = 2 };
 enum hd_bias { HD_BIAS_AS_IS = 0, HD_BIAS_DISABLE, HD_BIAS_PULL_UP, HD_BIAS_PULL_DOWN };
@@ -48,6 +45,18 @@ struct hd_board {
     unsigned lockout_ms;
     unsigned line_count;
     struct hd_line lines[HD_MAX_LINES];
+    /* [touch] */
+    struct hd_touch_board {
+        bool enabled;                  /* the section is present */
+        char device[HD_PATH_MAX];      /* evdev node, or "" */
+        char name[128];                /* or: match this in the device name, "" */
+        bool has_area;
+        double area_m[4];              /* x0, y0, x1, y1 */
+        unsigned calib_set;            /* bit k: calib_{k+1} given */
+        double calib[3][4];            /* panel_x, panel_y, plate_x_m, plate_y_m */
+        double max_distance_m;
+        double hysteresis_m;
+    } touch;
     /* [mixer] */
     double gain_limit;             /* upper bound of the mix gain g (1 = table full scale) */
     /* [table] */

@@ -86,6 +86,7 @@ static void publish(struct hd_engine *e)
     atomic_store_explicit(&e->stats.unknown_foci, s->unknown_foci, memory_order_relaxed);
     atomic_store_explicit(&e->stats.dropped_foci, s->dropped_foci, memory_order_relaxed);
     atomic_fetch_add_explicit(&e->stats.periods, 1, memory_order_relaxed);
+    atomic_store_explicit(&e->stats.active_voices, hd_player_active(&e->player), memory_order_relaxed);
 }
 
 void hd_engine_period(struct hd_engine *e, void *out, uint32_t frames)
@@ -97,8 +98,8 @@ void hd_engine_period(struct hd_engine *e, void *out, uint32_t frames)
     struct hd_event ev;
     e->started_count = 0;
     /* At most one ring's worth per period: a producer pushing as fast as we
-     * pop must not keep the real-time thread in this loop. */
-    while (e->started_count < HD_RING_SIZE && hd_spsc_pop(&e->ring, &ev)) {
+     * take must not keep the real-time thread in this loop. */
+    while (e->started_count < HD_RING_SIZE && hd_spsc_peek(&e->ring, e->started_count, &ev)) {
         e->started_t_ns[e->started_count++] = ev.t_ns;
         for (uint32_t i = 0; i < ev.focus_count; i++) {
             uint32_t k;
@@ -118,6 +119,10 @@ void hd_engine_period(struct hd_engine *e, void *out, uint32_t frames)
         hd_player_start(&e->player, e->current, ids, n_ids);
     hd_player_render(&e->player, out, frames);
     publish(e);
+    /* Only now do the events leave the ring: after the voice count that
+     * includes them (hd_engine_idle). */
+    if (e->started_count)
+        hd_spsc_release(&e->ring, e->started_count);
 }
 
 void hd_engine_start_at(struct hd_engine *e, uint64_t frame, uint32_t rewind_window)
@@ -144,8 +149,16 @@ void hd_engine_rewind(struct hd_engine *e, uint64_t frames)
 
 int hd_engine_pending(struct hd_engine *e)
 {
-    return atomic_load_explicit(&e->ring.tail, memory_order_acquire) !=
-           atomic_load_explicit(&e->ring.head, memory_order_relaxed);
+    return !hd_spsc_empty(&e->ring);
+}
+
+bool hd_engine_idle(struct hd_engine *e)
+{
+    /* Ring first: its acquire load of head makes the count published before
+     * the release of the last event visible (spsc.h). */
+    if (!hd_spsc_empty(&e->ring))
+        return false;
+    return atomic_load_explicit(&e->stats.active_voices, memory_order_relaxed) == 0;
 }
 
 void hd_engine_written(struct hd_engine *e, uint64_t now_ns)

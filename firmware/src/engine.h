@@ -18,6 +18,7 @@
 #include "spsc.h"
 
 #include <stdatomic.h>
+#include <stdbool.h>
 #include <stdint.h>
 
 #define HD_LATENCY_CAP (1u << 17) /* trigger->ALSA latency samples kept for the report */
@@ -27,6 +28,7 @@ struct hd_engine_stats {
     _Atomic uint64_t xruns, write_errors, periods;
     _Atomic uint64_t rewinds, rewound_frames;  /* triggers started at once, and the frames rendered again */
     _Atomic int rewind_error;                  /* the ALSA error that disabled rewinding, 0 if none */
+    _Atomic uint32_t active_voices;            /* voices with frames still to render, after the last render */
 };
 
 struct hd_engine {
@@ -66,6 +68,13 @@ uint64_t hd_engine_rewindable(const struct hd_engine *e);
 void hd_engine_rewind(struct hd_engine *e, uint64_t frames);
 /* Audio thread: whether a trigger waits in the ring. */
 int hd_engine_pending(struct hd_engine *e);
+/* Any thread, once the trigger producer has stopped: whether nothing is left
+ * to play (no event waits, no voice has frames to render). Reads only what
+ * the audio thread publishes (never the player, whose 64-bit frame counter
+ * could tear on a 32-bit CPU). Events leave the ring only after the active
+ * voice count that includes them is published, so an event between the ring
+ * and a voice is never missed. */
+bool hd_engine_idle(struct hd_engine *e);
 
 /* Main thread: offer a new program. Returns 0, or -EBUSY while a previous
  * reload is still being taken over (try again later). */

@@ -2,6 +2,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "program.h"
 
+#include <math.h>
+
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -116,4 +118,12 @@ void hd_program_free(struct hd_program *p)
     free(p->by_id);
     free(p->block_peak);
     free(p);
+}
+
+double hd_program_lead_time_s(const struct hd_program *p)
+{
+    /* Table format 1.0 carries no lead time and it cannot be derived from
+     * the samples alone (the peak is at the focus, not at an exciter). */
+    (void)p;
+    return NAN;
 }

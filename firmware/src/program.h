@@ -4,6 +4,7 @@
 #ifndef HD_PROGRAM_H
 #define HD_PROGRAM_H
 
+#include "hd_defs.h"
 #include "board.h"
 
 #include <haptic_table.h>
@@ -35,6 +36,11 @@ int hd_program_from_table(const haptic_table *t, const struct hd_board *b, struc
                           char err[HD_ERR_MAX]);
 
 void hd_program_free(struct hd_program *p);
+
+/* The table's lead time: seconds from a voice's first sample to its focal
+ * peak (the end of the kept time-reversal window), the largest over the
+ * table's foci; NAN when the table does not say. */
+double hd_program_lead_time_s(const struct hd_program *p);
 
 /* Index of the focus with this id, or -1 (binary search, real-time safe). */
 int32_t hd_program_find(const struct hd_program *p, uint32_t id);

@@ -41,16 +41,44 @@ static inline bool hd_spsc_push(struct hd_spsc *r, const struct hd_event *ev)
     return true;
 }
 
-/* Consumer side. Returns false when empty. */
-static inline bool hd_spsc_pop(struct hd_spsc *r, struct hd_event *ev)
+/* Consumer side: the i-th event not yet released (0 = the oldest), without
+ * taking it. Returns false when fewer than i + 1 events wait. */
+static inline bool hd_spsc_peek(struct hd_spsc *r, uint32_t i, struct hd_event *ev)
 {
     uint32_t h = atomic_load_explicit(&r->head, memory_order_relaxed);
     uint32_t t = atomic_load_explicit(&r->tail, memory_order_acquire);
-    if (h == t)
+    if (t - h <= i)
         return false;
-    *ev = r->slots[h & (HD_RING_SIZE - 1)];
-    atomic_store_explicit(&r->head, h + 1, memory_order_release);
+    *ev = r->slots[(h + i) & (HD_RING_SIZE - 1)];
     return true;
+}
+
+/* Consumer side: the n oldest events (all peeked) leave the ring. The release
+ * store publishes whatever the consumer wrote before it (the engine's active
+ * voice count) to a thread that then sees the ring empty. */
+static inline void hd_spsc_release(struct hd_spsc *r, uint32_t n)
+{
+    uint32_t h = atomic_load_explicit(&r->head, memory_order_relaxed);
+    atomic_store_explicit(&r->head, h + n, memory_order_release);
+}
+
+/* Consumer side. Returns false when empty. */
+static inline bool hd_spsc_pop(struct hd_spsc *r, struct hd_event *ev)
+{
+    if (!hd_spsc_peek(r, 0, ev))
+        return false;
+    hd_spsc_release(r, 1);
+    return true;
+}
+
+/* Any thread: whether every event pushed so far has been released. Exact
+ * for the consumer and for a thread that knows no push is under way (the
+ * producer stopped); otherwise a snapshot. */
+static inline bool hd_spsc_empty(struct hd_spsc *r)
+{
+    uint32_t h = atomic_load_explicit(&r->head, memory_order_acquire);
+    uint32_t t = atomic_load_explicit(&r->tail, memory_order_acquire);
+    return h == t;
 }
 
 #endif

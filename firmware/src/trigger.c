@@ -61,6 +61,27 @@ int hd_trigger_edge(struct hd_trigger *t, unsigned offset, enum hd_edge edge, ui
     return 1;
 }
 
+enum hd_line_verdict hd_line_health_read(struct hd_line_health *h, unsigned i, int read_rc)
+{
+    if (i >= HD_MAX_LINES || h->dead[i])
+        return HD_LINE_DISABLED;
+    if (read_rc >= 0 || read_rc == -ENOENT) {
+        h->read_errors[i] = 0;
+        return HD_LINE_OK;
+    }
+    if (++h->read_errors[i] < HD_LINE_MAX_READ_ERRORS)
+        return HD_LINE_GLITCH;
+    h->dead[i] = true;
+    return HD_LINE_DISABLED;
+}
+
+enum hd_line_verdict hd_line_health_fd_error(struct hd_line_health *h, unsigned i)
+{
+    if (i < HD_MAX_LINES)
+        h->dead[i] = true;
+    return HD_LINE_DISABLED;
+}
+
 static const char *skip_ws(const char *p)
 {
     while (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\n')

@@ -16,6 +16,7 @@
 #ifndef HD_TRIGGER_H
 #define HD_TRIGGER_H
 
+#include "hd_defs.h"
 #include "board.h"
 
 #include <stdbool.h>
@@ -57,6 +58,28 @@ int hd_trigger_line_index(const struct hd_trigger *t, unsigned offset);
  * know. timestamp_ns is the event's own timestamp (any monotonic-enough clock). */
 int hd_trigger_edge(struct hd_trigger *t, unsigned offset, enum hd_edge edge, uint64_t timestamp_ns,
                     struct hd_event *out);
+
+/* When a GPIO line is given up. A failed event read is usually a glitch
+ * (logged, the line stays); HD_LINE_MAX_READ_ERRORS failures in a row are
+ * not, and polling on would spin the trigger thread: the line is disabled,
+ * as it is at once when its event fd reports an error. Any good read resets
+ * the count. Other lines are never affected. */
+#define HD_LINE_MAX_READ_ERRORS 100u
+
+enum hd_line_verdict { HD_LINE_OK = 0, HD_LINE_GLITCH, HD_LINE_DISABLED };
+
+struct hd_line_health {
+    unsigned read_errors[HD_MAX_LINES];  /* failures in a row */
+    bool dead[HD_MAX_LINES];
+};
+
+/* Record the outcome of reading line i: read_rc >= 0 or -ENOENT (an edge of a
+ * line the board does not name: the read itself worked) is good, any other
+ * negative value a failed read. Returns the verdict (HD_LINE_DISABLED from
+ * the failure that disables the line on). */
+enum hd_line_verdict hd_line_health_read(struct hd_line_health *h, unsigned i, int read_rc);
+/* The line's event fd reported POLLERR/POLLNVAL: disabled at once. */
+enum hd_line_verdict hd_line_health_fd_error(struct hd_line_health *h, unsigned i);
 
 /* Parse one host trigger line (no trailing newline needed). Returns 1 with
  * *out filled, 0 for a blank or comment line, -EINVAL with a message in err. */

@@ -5,6 +5,7 @@
 #ifndef HD_TRIGGER_GPIOD_H
 #define HD_TRIGGER_GPIOD_H
 
+#include "hd_defs.h"
 #include "trigger.h"
 
 #include <gpiod.h>

@@ -2,6 +2,7 @@
 #include "board.h"
 
 #include <errno.h>
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -157,6 +158,21 @@ static const struct bad_case cases[] = {
     {"[gpio]\nchip = 0\n[line 3]\nfoci = 1\nedge = both\n", "[line 3] edge", 7},
     {"[gpio]\nchip = 0\n[line 3]\nbias = pull-up\n", "[line 3] foci", 0},
     {"[gpio]\nchip = 0\n[line x]\nfoci = 1\n", "[line x] foci", 6},
+    {"[touch]\ndevice = event0\n", "[touch] device", 4},
+    {"[touch]\narea_m = 0,0,0.7\n", "[touch] area_m", 4},
+    {"[touch]\narea_m = 0,0,0,0.7\n", "[touch] area_m", 4},
+    {"[touch]\narea_m = 0,0,0.7,0.7,1\n", "[touch] area_m", 4},
+    {"[touch]\ncalib_1 = 0,0,x,0\n", "[touch] calib_1", 4},
+    {"[touch]\ncalib_4 = 0,0,0,0\n", "[touch] calib_4", 4},
+    {"[touch]\nmax_distance_m = 0\n", "[touch] max_distance_m", 4},
+    {"[touch]\nmax_distance_m = nan\n", "[touch] max_distance_m", 4},
+    {"[touch]\nhysteresis_m = -0.001\n", "[touch] hysteresis_m", 4},
+    {"[touch]\nswap = 1\n", "[touch] swap", 4},
+    {"[touch]\narea_m = 0,0,0.7,0.7\n", "[touch] device", 0},
+    {"[touch]\ndevice = /dev/input/event0\nname = ft5x06\narea_m = 0,0,0.7,0.7\n", "[touch] device", 0},
+    {"[touch]\nname = ft5x06\n", "[touch] area_m", 0},
+    {"[touch]\nname = ft5x06\ncalib_1 = 0,0,0,0\ncalib_3 = 1,0,1,0\n", "[touch] calib_2", 0},
+    {"[touch]\nname = ft5x06\ncalib_1 = 0,0,0,0\ncalib_2 = 1,1,1,0\ncalib_3 = 2,2,0,1\n", "[touch] calib_3", 0},
     {"[gpio]\nchip = 0\n[line 1024]\nfoci = 1\n", "[line 1024] foci", 6},
     {"[line 3]\nfoci = 1\n", "[gpio] chip", 0},
     {"[mixer]\ngain_limit = 0\n", "[mixer] gain_limit", 4},
@@ -231,7 +247,38 @@ static void shipped_boards_parse(void **state)
             assert_true(b.line_count >= 3);
             assert_true(strncmp(b.alsa_device, "hw:", 3) == 0); /* hw:, never dmix */
         }
+        assert_int_equal(b.touch.enabled, i == 2); /* the Pi 5 example has a touchscreen */
+        if (b.touch.enabled) {
+            /* Its three corners map the 800 x 480 screen onto 154.2 x 85.9 mm of plate. */
+            assert_int_equal(b.touch.calib_set, 7);
+            assert_true(fabs(b.touch.calib[0][2] - b.touch.calib[1][2] - 0.1542) < 1e-9);
+            assert_true(fabs(b.touch.calib[0][3] - b.touch.calib[2][3] - 0.0859) < 1e-9);
+        }
     }
+}
+
+static void touch_section(void **state)
+{
+    (void)state;
+    struct hd_board b;
+    char err[HD_ERR_MAX] = "";
+    assert_int_equal(hd_board_parse_string("[alsa]\ndevice = hw:0\n[touch]\nname = ILITEK Multi-Touch\n"
+                                           "calib_1 = 0, 0, 0.010, 0.690\ncalib_2 = 4000,0,0.690,0.690\n"
+                                           "calib_3 = 0,3000,0.010,0.010\nmax_distance_m = 0.08\n"
+                                           "hysteresis_m = 0\n", "b.ini", &b, err), 0);
+    assert_true(b.touch.enabled);
+    assert_string_equal(b.touch.name, "ILITEK Multi-Touch");
+    assert_string_equal(b.touch.device, "");
+    assert_int_equal(b.touch.calib_set, 7);
+    assert_true(b.touch.calib[1][0] == 4000 && b.touch.calib[1][2] == 0.690 && b.touch.calib[2][3] == 0.010);
+    assert_true(b.touch.max_distance_m == 0.08 && b.touch.hysteresis_m == 0);
+    assert_int_equal(hd_board_parse_string("[alsa]\ndevice = hw:0\n[touch]\ndevice = /dev/input/event3\n"
+                                           "area_m = 0.7, 0, 0, 0.5\n", "b.ini", &b, err), 0);
+    assert_string_equal(b.touch.device, "/dev/input/event3");
+    assert_true(b.touch.has_area && b.touch.area_m[0] == 0.7 && b.touch.area_m[3] == 0.5);
+    assert_true(b.touch.max_distance_m == 0.05 && b.touch.hysteresis_m == 0.005); /* defaults */
+    assert_int_equal(hd_board_parse_string("[alsa]\ndevice = hw:0\n", "b.ini", &b, err), 0);
+    assert_false(b.touch.enabled);
 }
 
 static void uint_list(void **state)
@@ -254,6 +301,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(every_key), cmocka_unit_test(defaults),     cmocka_unit_test(bad_values),
         cmocka_unit_test(missing_file), cmocka_unit_test(uint_list), cmocka_unit_test(shipped_boards_parse),
+        cmocka_unit_test(touch_section),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

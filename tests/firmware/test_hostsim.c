@@ -58,6 +58,22 @@ static int wait_exit(pid_t pid)
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
 }
 
+/* A live run must end with status 0; otherwise show what hapticd said
+ * (a sanitizer's report is there too). */
+static void assert_clean_exit(pid_t pid, const char *stderr_path)
+{
+    int st = wait_exit(pid);
+    if (st != 0) {
+        char buf[16384];
+        FILE *f = fopen(stderr_path, "r");
+        size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
+        buf[n] = '\0';
+        if (f)
+            fclose(f);
+        fail_msg("hapticd exited with %d; its stderr:\n%s", st, buf);
+    }
+}
+
 static void write_board_extra(const char *file, const char *format, const char *map, const char *alsa_extra)
 {
     FILE *f = fopen(file, "w");
@@ -283,7 +299,7 @@ static void sighup_keeps_old_table_on_corruption(void **state)
     assert_int_equal(write(fd, line, (size_t)n), n);
     sleep_ms(100);
     kill(pid, SIGTERM);
-    assert_int_equal(wait_exit(pid), 0);
+    assert_clean_exit(pid, err);
     close(fd);
     assert_true(file_contains(err, "stopping (drain)"));
 
@@ -351,17 +367,24 @@ static void live_triggers(int rewind)
     sleep_ms(20);
     const sf_count_t triggers = 6;
     for (int i = 0; i < triggers; i++) {
-        /* pairs 5 ms apart (B starts during A's 20.8 ms), pairs 60 ms apart */
+        /* pairs 10 ms apart (B starts during A's 20.8 ms; far enough apart that a
+         * trigger thread held up by a loaded machine rarely reads both at once,
+         * which would merge them into one voice), pairs 60 ms apart */
         char line[64];
         int n = snprintf(line, sizeof line, "focus %u\n", t.ids[i % 2]);
         assert_int_equal(write(fd, line, (size_t)n), n);
-        sleep_ms(i % 2 ? 60 : 5);
+        sleep_ms(i % 2 ? 60 : 10);
     }
     kill(pid, SIGTERM);
-    assert_int_equal(wait_exit(pid), 0);
+    assert_clean_exit(pid, err);
     close(fd);
     assert_true(file_contains(err, rewind ? "triggers start at once" : "rewind = false"));
     assert_int_equal(report_value(report, "triggers"), triggers);
+    /* The fixed part of touch -> focal peak: 32 of 48000 frames kept ahead of a
+     * rewound voice, else the 128-frame buffer; the table has no lead time. */
+    assert_true(file_contains(report, rewind ? "queue_ahead_ms 0.667\n" : "queue_ahead_ms 2.667\n"));
+    assert_true(file_contains(report, "lead_time_ms unknown\n"));
+    assert_true(file_contains(err, rewind ? "queue 0.667 ms (rewind margin)" : "queue 2.667 ms (no rewinding"));
     long rewinds = report_value(report, "rewinds");
     if (rewind)
         assert_true(rewinds >= 1 && rewinds <= triggers); /* a late audio thread may leave none to rewind */
@@ -409,6 +432,77 @@ static void live_without_rewind_starts_at_period(void **state)
 {
     (void)state;
     live_triggers(0);
+}
+
+/* Signals racing the audio thread: triggers flow from the FIFO while SIGHUP
+ * reloads the table twice, and SIGTERM arrives while the last voice plays,
+ * so the main thread reloads, collects and waits for the drain while the
+ * audio thread renders. Under ThreadSanitizer (the tsan preset) a data race
+ * between them makes hapticd exit 66; in every build the drain must let the
+ * voice in flight finish: the WAV ends with the last voice complete. */
+static void live_signals_race_the_audio_thread(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 2, N, FW_RANDOM, 5000, 13);
+    char table[300], fifo[300], wav[300], board[300], err[300], device[400], report[300];
+    path(table, sizeof table, "race.htab");
+    path(fifo, sizeof fifo, "race-triggers");
+    path(wav, sizeof wav, "race.wav");
+    path(board, sizeof board, "race.ini");
+    path(err, sizeof err, "race-stderr.txt");
+    path(report, sizeof report, "race-report.txt");
+    fw_table_write(&t, table);
+    write_board(board, "S32_LE", "0,1,2,3,4,5,6,7");
+    unlink(fifo);
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
+    char *argv[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device,
+                    "--latency-report", report, NULL};
+    pid_t pid = spawn(argv, err);
+    int fd = open(fifo, O_WRONLY);
+    assert_true(fd >= 0);
+    wait_for(err, "running");
+    const int triggers = 40;
+    for (int i = 0; i < triggers; i++) {
+        char line[64];
+        int n = snprintf(line, sizeof line, "focus %u\n", t.ids[i % 2]);
+        assert_int_equal(write(fd, line, (size_t)n), n);
+        if (i == 10 || i == 25)
+            kill(pid, SIGHUP); /* same file: a good table, taken while voices play */
+        /* the last trigger alone, well after the others, so its voice is not merged */
+        sleep_ms(i == triggers - 2 ? 40 : i == triggers - 1 ? 5 : 3);
+    }
+    kill(pid, SIGTERM); /* the last voice (20.8 ms) started about 5 ms ago: it is still playing */
+    assert_clean_exit(pid, err);
+    close(fd);
+    assert_false(file_contains(err, "ThreadSanitizer"));
+    assert_true(file_contains(err, "stopping (drain)"));
+    assert_true(file_contains(err, "reloaded"));
+    assert_int_equal(report_value(report, "triggers"), triggers);
+
+    /* Drained: the last frames of the WAV are the end of the last voice,
+     * which started after every other one; find it from the end. */
+    sf_count_t frames;
+    int32_t *w = read_wav(wav, &frames, SF_FORMAT_PCM_32);
+    sf_count_t last = -1;
+    for (sf_count_t n = frames - 1; n >= 0 && last < 0; n--)
+        for (uint32_t c = 0; c < C; c++)
+            if (w[n * C + c]) {
+                last = n;
+                break;
+            }
+    assert_true(last >= N);
+    /* The last non-zero frame closes a voice: it is the table's last
+     * non-zero frame of one focus, N - 1 frames after that voice's start
+     * (the voices before it ended earlier, the table never ends in zeros). */
+    uint32_t f = (uint32_t)(triggers - 1) % 2;
+    for (uint32_t c = 0; c < C; c++)
+        if (w[last * C + c] != fw_sample(&t, f, N - 1, c) * 65536)
+            fail_msg("last non-zero frame %ld of %ld, channel %u: %d, the last voice ends with %d", (long)last,
+                     (long)frames, c, w[last * C + c] / 65536, fw_sample(&t, f, N - 1, c));
+    free(w);
+    fw_table_free(&t);
 }
 
 static void bad_inputs_fail_cleanly(void **state)
@@ -471,6 +565,7 @@ int main(void)
         cmocka_unit_test(sighup_keeps_old_table_on_corruption),
         cmocka_unit_test(live_rewind_starts_at_once),
         cmocka_unit_test(live_without_rewind_starts_at_period),
+        cmocka_unit_test(live_signals_race_the_audio_thread),
         cmocka_unit_test(bad_inputs_fail_cleanly),
     };
     return cmocka_run_group_tests(tests, setup, teardown);

@@ -60,6 +60,46 @@ static struct hd_program *program(const struct fw_table *t, struct hd_board *b)
     return p;
 }
 
+/* The repeated set-up: a table, its program on a 4-channel board and an
+ * engine playing it, made before each test from its rig_spec and freed
+ * after it (cmocka fixtures). */
+struct rig_spec {
+    uint32_t foci, samples;
+    enum fw_kind kind;
+    int amp;
+    uint32_t seed;
+    int record_latency;
+};
+
+struct rig {
+    struct fw_table t;
+    struct hd_board b;
+    struct hd_engine e;
+};
+
+static int rig_setup(void **state)
+{
+    const struct rig_spec *spec = *state;
+    struct rig *r = calloc(1, sizeof *r);
+    if (!r)
+        return -1;
+    fw_table_make(&r->t, C, spec->foci, spec->samples, spec->kind, spec->amp, spec->seed);
+    struct hd_program *p = program(&r->t, &r->b);
+    if (hd_engine_init(&r->e, &r->b, p, spec->record_latency) != 0)
+        return -1;
+    *state = r;
+    return 0;
+}
+
+static int rig_teardown(void **state)
+{
+    struct rig *r = *state;
+    hd_engine_free(&r->e);
+    fw_table_free(&r->t);
+    free(r);
+    return 0;
+}
+
 static void push(struct hd_engine *e, uint32_t n, const uint32_t *ids)
 {
     struct hd_event ev = {.t_ns = hd_now_ns(), .frame = -1, .focus_count = n};
@@ -69,95 +109,77 @@ static void push(struct hd_engine *e, uint32_t n, const uint32_t *ids)
 
 static void trigger_during_playback_adds_at_next_period(void **state)
 {
-    (void)state;
-    struct fw_table t;
-    fw_table_make(&t, C, 2, 300, FW_RANDOM, 1000, 11);
-    struct hd_board b;
-    struct hd_program *p = program(&t, &b);
-    struct hd_engine e;
-    assert_int_equal(hd_engine_init(&e, &b, p, 0), 0);
+    struct rig *r = *state;
+    struct fw_table *t = &r->t;
+    struct hd_engine *e = &r->e;
     int32_t out[8][P * C];
-    uint32_t a = t.ids[0], bb = t.ids[1];
-    push(&e, 1, &a);                  /* before period 0: starts at frame 0 */
-    hd_engine_period(&e, out[0], P);
-    hd_engine_period(&e, out[1], P);
-    push(&e, 1, &bb);                 /* during playback: starts at frame 2P, A goes on */
+    uint32_t a = t->ids[0], bb = t->ids[1];
+    push(e, 1, &a);                  /* before period 0: starts at frame 0 */
+    hd_engine_period(e, out[0], P);
+    hd_engine_period(e, out[1], P);
+    push(e, 1, &bb);                 /* during playback: starts at frame 2P, A goes on */
     for (int q = 2; q < 8; q++)
-        hd_engine_period(&e, out[q], P);
+        hd_engine_period(e, out[q], P);
     for (uint32_t f = 0; f < 8 * P; f++)
         for (uint32_t c = 0; c < C; c++) {
             int32_t want = 0;
             if (f < 300)
-                want += fw_sample(&t, 0, f, c);
+                want += fw_sample(t, 0, f, c);
             if (f >= 2 * P && f - 2 * P < 300)
-                want += fw_sample(&t, 1, f - 2 * P, c);
+                want += fw_sample(t, 1, f - 2 * P, c);
             assert_int_equal(out[f / P][(f % P) * C + c], want * 65536);
         }
-    assert_int_equal(hd_player_active(&e.player), 0);
-    hd_engine_free(&e);
-    fw_table_free(&t);
+    assert_int_equal(hd_player_active(&e->player), 0);
 }
 
 static void triggers_in_one_period_merge(void **state)
 {
-    (void)state;
-    struct fw_table t;
-    fw_table_make(&t, C, 3, 256, FW_DISJOINT, 8000, 2);
-    struct hd_board b;
-    struct hd_program *p = program(&t, &b);
-    struct hd_engine e;
-    assert_int_equal(hd_engine_init(&e, &b, p, 1), 0);
+    struct rig *r = *state;
+    struct fw_table *t = &r->t;
+    struct hd_engine *e = &r->e;
     int32_t out[P * C];
     /* Two fingers and a repeat of one of them before the same boundary: one
      * voice, union {0,1}, joint gain 1/sqrt(2) (disjoint, equal energies). */
-    uint32_t ids0[] = {t.ids[0]}, ids1[] = {t.ids[1], t.ids[0]}, unknown[] = {12345};
-    push(&e, 1, ids0);
-    push(&e, 2, ids1);
-    push(&e, 1, unknown);
-    hd_engine_period(&e, out, P);
-    hd_engine_written(&e, hd_now_ns());
-    assert_int_equal(hd_player_active(&e.player), 1);
+    uint32_t ids0[] = {t->ids[0]}, ids1[] = {t->ids[1], t->ids[0]}, unknown[] = {12345};
+    push(e, 1, ids0);
+    push(e, 2, ids1);
+    push(e, 1, unknown);
+    hd_engine_period(e, out, P);
+    hd_engine_written(e, hd_now_ns());
+    assert_int_equal(hd_player_active(&e->player), 1);
     const struct hd_voice *v = NULL;
     for (unsigned i = 0; i < HD_MAX_VOICES; i++)
-        if (e.player.voices[i].program)
-            v = &e.player.voices[i];
+        if (e->player.voices[i].program)
+            v = &e->player.voices[i];
     assert_non_null(v);
     assert_int_equal(v->mix.count, 2);
     assert_true(v->mix.gain > 0.70710678118 && v->mix.gain < 0.70710678119);
-    assert_int_equal(e.player.stats.unknown_foci, 1);
-    assert_int_equal(atomic_load(&e.latency_count), 3); /* every event is timed */
+    assert_int_equal(e->player.stats.unknown_foci, 1);
+    assert_int_equal(atomic_load(&e->latency_count), 3); /* every event is timed */
     /* Only unknown foci: no voice at all. */
-    push(&e, 1, unknown);
-    hd_engine_period(&e, out, P);
-    assert_int_equal(e.player.stats.voices_started, 1);
-    hd_engine_free(&e);
-    fw_table_free(&t);
+    push(e, 1, unknown);
+    hd_engine_period(e, out, P);
+    assert_int_equal(e->player.stats.voices_started, 1);
 }
 
 static void oldest_voice_is_stolen(void **state)
 {
-    (void)state;
-    struct fw_table t;
-    fw_table_make(&t, C, 1, 4096, FW_RANDOM, 100, 4);
-    struct hd_board b;
-    struct hd_program *p = program(&t, &b);
-    struct hd_engine e;
-    assert_int_equal(hd_engine_init(&e, &b, p, 0), 0);
+    struct rig *r = *state;
+    struct fw_table *t = &r->t;
+    struct hd_engine *e = &r->e;
     int32_t out[P * C];
     for (unsigned i = 0; i <= HD_MAX_VOICES; i++) {
-        push(&e, 1, &t.ids[0]);
-        hd_engine_period(&e, out, P);
+        push(e, 1, &t->ids[0]);
+        hd_engine_period(e, out, P);
     }
-    assert_int_equal(hd_player_active(&e.player), HD_MAX_VOICES);
-    assert_int_equal(e.player.stats.voices_stolen, 1);
+    assert_int_equal(hd_player_active(&e->player), HD_MAX_VOICES);
+    assert_int_equal(e->player.stats.voices_stolen, 1);
     /* The oldest (started first, furthest along) went: the voices started at periods 1..8. */
     uint64_t first = UINT64_MAX;
     for (unsigned i = 0; i < HD_MAX_VOICES; i++)
-        first = e.player.voices[i].start < first ? e.player.voices[i].start : first;
+        first = e->player.voices[i].start < first ? e->player.voices[i].start : first;
     assert_int_equal(first, P);
-    assert_int_equal(hd_engine_frame(&e) - first, HD_MAX_VOICES * P);
-    hd_engine_free(&e);
-    fw_table_free(&t);
+    assert_int_equal(hd_engine_frame(e) - first, HD_MAX_VOICES * P);
 }
 
 static void reload_hands_over_at_a_boundary(void **state)
@@ -227,83 +249,71 @@ static void dev_expect(const struct device *d, const struct fw_table *t, uint32_
 
 static void rewind_starts_a_voice_at_once(void **state)
 {
-    (void)state;
-    struct fw_table t;
-    fw_table_make(&t, C, 2, 300, FW_RANDOM, 1000, 31);
-    struct hd_board b;
-    struct hd_program *p = program(&t, &b);
-    struct hd_engine e;
-    assert_int_equal(hd_engine_init(&e, &b, p, 1), 0);
+    struct rig *r = *state;
+    struct fw_table *t = &r->t;
+    struct hd_engine *e = &r->e;
     static struct device d;
     memset(&d, 0, sizeof d);
-    hd_engine_start_at(&e, 2 * P, 2 * P); /* pre-fill of 2 periods; rewinds reach 2 periods back */
-    assert_int_equal(hd_engine_rewindable(&e), 2 * P); /* the pre-fill is silence: rendered again as such */
+    hd_engine_start_at(e, 2 * P, 2 * P); /* pre-fill of 2 periods; rewinds reach 2 periods back */
+    assert_int_equal(hd_engine_rewindable(e), 2 * P); /* the pre-fill is silence: rendered again as such */
     /* A trigger right after the start: 24 frames of the pre-fill taken back, A at 2P - 24. */
-    push(&e, 1, &t.ids[0]);
-    hd_engine_rewind(&e, 24);
-    dev_render(&e, &d, 24);
-    hd_engine_written(&e, hd_now_ns());
-    dev_render(&e, &d, P);
-    dev_render(&e, &d, P);
-    dev_render(&e, &d, P); /* device frames up to 5P written */
-    assert_int_equal(hd_engine_rewindable(&e), 2 * P);
+    push(e, 1, &t->ids[0]);
+    hd_engine_rewind(e, 24);
+    dev_render(e, &d, 24);
+    hd_engine_written(e, hd_now_ns());
+    dev_render(e, &d, P);
+    dev_render(e, &d, P);
+    dev_render(e, &d, P); /* device frames up to 5P written */
+    assert_int_equal(hd_engine_rewindable(e), 2 * P);
     /* A trigger: the device went back 40 frames; B starts at 5P - 40, and
      * those 40 frames are rendered again: A's part in them identical. */
-    push(&e, 1, &t.ids[1]);
-    hd_engine_rewind(&e, 40);
-    assert_int_equal(hd_engine_frame(&e), 5 * P - 40);
-    dev_render(&e, &d, 40);
-    hd_engine_written(&e, hd_now_ns());
-    assert_int_equal(atomic_load(&e.latency_count), 2);
-    assert_int_equal(hd_engine_frame(&e), 5 * P);
+    push(e, 1, &t->ids[1]);
+    hd_engine_rewind(e, 40);
+    assert_int_equal(hd_engine_frame(e), 5 * P - 40);
+    dev_render(e, &d, 40);
+    hd_engine_written(e, hd_now_ns());
+    assert_int_equal(atomic_load(&e->latency_count), 2);
+    assert_int_equal(hd_engine_frame(e), 5 * P);
     for (int q = 0; q < 6; q++)
-        dev_render(&e, &d, P);
+        dev_render(e, &d, P);
     const uint32_t focus[] = {0, 1};
     const uint64_t start[] = {2 * P - 24, 5 * P - 40};
-    dev_expect(&d, &t, 2, focus, start, hd_engine_frame(&e));
-    assert_int_equal(atomic_load(&e.stats.rewinds), 2);
-    assert_int_equal(atomic_load(&e.stats.rewound_frames), 24 + 40);
+    dev_expect(&d, t, 2, focus, start, hd_engine_frame(e));
+    assert_int_equal(atomic_load(&e->stats.rewinds), 2);
+    assert_int_equal(atomic_load(&e->stats.rewound_frames), 24 + 40);
     /* A rewind never goes further back than the window. */
-    hd_engine_rewind(&e, 1000);
-    assert_int_equal(hd_engine_frame(&e), 11 * P - 2 * P);
-    assert_int_equal(atomic_load(&e.stats.rewound_frames), 24 + 40 + 2 * P);
-    hd_engine_free(&e);
-    fw_table_free(&t);
+    hd_engine_rewind(e, 1000);
+    assert_int_equal(hd_engine_frame(e), 11 * P - 2 * P);
+    assert_int_equal(atomic_load(&e->stats.rewound_frames), 24 + 40 + 2 * P);
 }
 
 static void rewind_into_an_ended_voice(void **state)
 {
-    (void)state;
-    struct fw_table t;
-    fw_table_make(&t, C, 2, 100, FW_RANDOM, 1000, 32);
-    struct hd_board b;
-    struct hd_program *p = program(&t, &b);
-    struct hd_engine e;
-    assert_int_equal(hd_engine_init(&e, &b, p, 0), 0);
+    struct rig *r = *state;
+    struct fw_table *t = &r->t;
+    struct hd_engine *e = &r->e;
     static struct device d;
     memset(&d, 0, sizeof d);
-    hd_engine_start_at(&e, 0, 2 * P);
-    push(&e, 1, &t.ids[0]);
-    dev_render(&e, &d, P); /* A: frames 0..99 */
-    dev_render(&e, &d, P);
-    dev_render(&e, &d, P); /* A has ended (100 < 3P) but its tail is within reach */
-    assert_int_equal(hd_player_active(&e.player), 0);
-    assert_true(hd_player_uses(&e.player, p));
+    hd_engine_start_at(e, 0, 2 * P);
+    push(e, 1, &t->ids[0]);
+    dev_render(e, &d, P); /* A: frames 0..99 */
+    dev_render(e, &d, P);
+    dev_render(e, &d, P); /* A has ended (100 < 3P) but its tail is within reach */
+    assert_int_equal(hd_player_active(&e->player), 0);
+    assert_true(hd_player_uses(&e->player, e->current));
     /* Back to frame P: A's frames P..99 must come out again, B on top. */
-    push(&e, 1, &t.ids[1]);
-    hd_engine_rewind(&e, 2 * P);
-    assert_int_equal(hd_engine_frame(&e), P);
-    dev_render(&e, &d, P);
-    dev_render(&e, &d, P);
+    push(e, 1, &t->ids[1]);
+    hd_engine_rewind(e, 2 * P);
+    assert_int_equal(hd_engine_frame(e), P);
+    dev_render(e, &d, P);
+    dev_render(e, &d, P);
     for (int q = 0; q < 4; q++)
-        dev_render(&e, &d, P);
+        dev_render(e, &d, P);
     const uint32_t focus[] = {0, 1};
     const uint64_t start[] = {0, P};
-    dev_expect(&d, &t, 2, focus, start, hd_engine_frame(&e));
+    dev_expect(&d, t, 2, focus, start, hd_engine_frame(e));
     /* Out of reach now: both released. */
-    assert_false(hd_player_uses(&e.player, p));
-    hd_engine_free(&e);
-    fw_table_free(&t);
+    assert_false(hd_player_uses(&e->player, e->current));
 }
 
 static void slot_of_a_voice_in_reach_is_kept(void **state)
@@ -361,30 +371,26 @@ static void *storm_producer(void *arg)
 
 static void trigger_storm_bounded_memory(void **state)
 {
-    (void)state;
-    struct fw_table t;
-    fw_table_make(&t, C, 3, 2000, FW_RANDOM, 2000, 8);
-    struct hd_board b;
-    struct hd_program *p = program(&t, &b);
-    struct hd_engine e;
-    assert_int_equal(hd_engine_init(&e, &b, p, 1), 0);
+    struct rig *r = *state;
+    struct fw_table *t = &r->t;
+    struct hd_engine *e = &r->e;
     int32_t out[P * C];
-    struct storm s = {.e = &e, .id = t.ids[2]};
+    struct storm s = {.e = e, .id = t->ids[2]};
     atomic_init(&s.done, 0);
     pthread_t th;
     long before = atomic_load(&allocations);
     assert_int_equal(pthread_create(&th, NULL, storm_producer, &s), 0);
     uint64_t periods = 0;
-    hd_engine_start_at(&e, 2 * P, 2 * P);
-    while (!atomic_load(&s.done) || atomic_load(&e.ring.tail) != atomic_load(&e.ring.head)) {
-        hd_engine_period(&e, out, P);
-        hd_engine_written(&e, hd_now_ns());
+    hd_engine_start_at(e, 2 * P, 2 * P);
+    while (!atomic_load(&s.done) || !hd_spsc_empty(&e->ring)) {
+        hd_engine_period(e, out, P);
+        hd_engine_written(e, hd_now_ns());
         periods++;
-        if (periods % 2 && hd_engine_pending(&e) && hd_engine_rewindable(&e) > 0) { /* a trigger answered at once: rewind, render again */
-            uint64_t n = hd_engine_rewindable(&e) < 40 ? hd_engine_rewindable(&e) : 40;
-            hd_engine_rewind(&e, n);
-            hd_engine_period(&e, out, (uint32_t)n);
-            hd_engine_written(&e, hd_now_ns());
+        if (periods % 2 && hd_engine_pending(e) && hd_engine_rewindable(e) > 0) { /* a trigger answered at once: rewind, render again */
+            uint64_t n = hd_engine_rewindable(e) < 40 ? hd_engine_rewindable(e) : 40;
+            hd_engine_rewind(e, n);
+            hd_engine_period(e, out, (uint32_t)n);
+            hd_engine_written(e, hd_now_ns());
             periods++;
         }
     }
@@ -392,26 +398,79 @@ static void trigger_storm_bounded_memory(void **state)
     long during = atomic_load(&allocations) - before;
     /* pthread_create may allocate in libc (not wrapped); our code must not. */
     assert_int_equal(during, 0);
-    uint64_t consumed = atomic_load(&e.latency_count), dropped = atomic_load(&e.ring.dropped);
+    uint64_t consumed = atomic_load(&e->latency_count), dropped = atomic_load(&e->ring.dropped);
     assert_true(consumed + dropped == STORM);
-    assert_true(hd_player_active(&e.player) <= HD_MAX_VOICES);
-    assert_true(e.player.stats.voices_started <= periods);
-    assert_true(e.player.stats.voices_started >= 1);
-    hd_engine_free(&e);
-    fw_table_free(&t);
+    assert_true(hd_player_active(&e->player) <= HD_MAX_VOICES);
+    assert_true(e->player.stats.voices_started <= periods);
+    assert_true(e->player.stats.voices_started >= 1);
 }
+
+/* The ring: peeked events stay in it until released, so a thread that sees
+ * it empty knows the consumer has counted them. */
+static void ring_peek_and_release(void **state)
+{
+    (void)state;
+    static struct hd_spsc r;
+    hd_spsc_init(&r);
+    assert_true(hd_spsc_empty(&r));
+    for (uint32_t i = 0; i < 3; i++) {
+        struct hd_event ev = {.frame = -1, .focus_count = 1, .focus_ids = {i}};
+        assert_true(hd_spsc_push(&r, &ev));
+    }
+    struct hd_event ev;
+    assert_true(hd_spsc_peek(&r, 2, &ev));
+    assert_int_equal(ev.focus_ids[0], 2);
+    assert_false(hd_spsc_peek(&r, 3, &ev));
+    hd_spsc_release(&r, 2);
+    assert_false(hd_spsc_empty(&r));
+    assert_true(hd_spsc_pop(&r, &ev));
+    assert_int_equal(ev.focus_ids[0], 2);
+    assert_true(hd_spsc_empty(&r));
+    assert_false(hd_spsc_pop(&r, &ev));
+}
+
+/* What the main thread's drain waits for, from the published state only:
+ * busy while an event waits and while its voice has frames to render. */
+static void idle_after_the_last_voice(void **state)
+{
+    struct rig *r = *state;
+    struct fw_table *t = &r->t;
+    struct hd_engine *e = &r->e;
+    int32_t out[P * C];
+    assert_true(hd_engine_idle(e));
+    push(e, 1, &t->ids[0]);
+    assert_false(hd_engine_idle(e)); /* in the ring */
+    hd_engine_period(e, out, P);     /* frames 0..63 of 100 */
+    assert_false(hd_engine_idle(e)); /* out of the ring, counted as a voice */
+    assert_int_equal(atomic_load(&e->stats.active_voices), 1);
+    hd_engine_period(e, out, P);     /* frames 64..127: the voice ends at 100 */
+    assert_true(hd_engine_idle(e));
+    assert_int_equal(atomic_load(&e->stats.active_voices), 0);
+}
+
+/* Each test's rig: foci, samples, kind, amplitude, seed, latency record. */
+#define RIG_TEST(f) cmocka_unit_test_prestate_setup_teardown(f, rig_setup, rig_teardown, (void *)&f##_rig)
+static const struct rig_spec trigger_during_playback_adds_at_next_period_rig = {2, 300, FW_RANDOM, 1000, 11, 0};
+static const struct rig_spec triggers_in_one_period_merge_rig = {3, 256, FW_DISJOINT, 8000, 2, 1};
+static const struct rig_spec oldest_voice_is_stolen_rig = {1, 4096, FW_RANDOM, 100, 4, 0};
+static const struct rig_spec rewind_starts_a_voice_at_once_rig = {2, 300, FW_RANDOM, 1000, 31, 1};
+static const struct rig_spec rewind_into_an_ended_voice_rig = {2, 100, FW_RANDOM, 1000, 32, 0};
+static const struct rig_spec trigger_storm_bounded_memory_rig = {3, 2000, FW_RANDOM, 2000, 8, 1};
+static const struct rig_spec idle_after_the_last_voice_rig = {1, 100, FW_RANDOM, 1000, 41, 0};
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(trigger_during_playback_adds_at_next_period),
-        cmocka_unit_test(triggers_in_one_period_merge),
-        cmocka_unit_test(oldest_voice_is_stolen),
+        RIG_TEST(trigger_during_playback_adds_at_next_period),
+        RIG_TEST(triggers_in_one_period_merge),
+        RIG_TEST(oldest_voice_is_stolen),
         cmocka_unit_test(reload_hands_over_at_a_boundary),
-        cmocka_unit_test(rewind_starts_a_voice_at_once),
-        cmocka_unit_test(rewind_into_an_ended_voice),
+        RIG_TEST(rewind_starts_a_voice_at_once),
+        RIG_TEST(rewind_into_an_ended_voice),
         cmocka_unit_test(slot_of_a_voice_in_reach_is_kept),
-        cmocka_unit_test(trigger_storm_bounded_memory),
+        RIG_TEST(trigger_storm_bounded_memory),
+        cmocka_unit_test(ring_peek_and_release),
+        RIG_TEST(idle_after_the_last_voice),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

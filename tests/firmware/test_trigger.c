@@ -143,12 +143,44 @@ static void host_commands(void **state)
     }
 }
 
+/* The policy for a failing GPIO line: 99 failed reads in a row are glitches,
+ * the 100th disables the line; a good read (or an edge of an unknown line:
+ * the read worked) resets the count; an fd error disables at once; lines are
+ * independent. */
+static void line_error_policy(void **state)
+{
+    (void)state;
+    static struct hd_line_health h;
+    memset(&h, 0, sizeof h);
+    for (unsigned k = 1; k < 100; k++)
+        assert_int_equal(hd_line_health_read(&h, 0, -EIO), HD_LINE_GLITCH);
+    assert_int_equal(hd_line_health_read(&h, 0, 1), HD_LINE_OK); /* 99 failures, then a touch: reset */
+    assert_int_equal(h.read_errors[0], 0);
+    for (unsigned k = 1; k < 100; k++)
+        assert_int_equal(hd_line_health_read(&h, 0, -EIO), HD_LINE_GLITCH);
+    assert_int_equal(hd_line_health_read(&h, 0, -ENOENT), HD_LINE_OK); /* unknown line's edge: read worked */
+    for (unsigned k = 1; k < 100; k++)
+        assert_int_equal(hd_line_health_read(&h, 0, k % 2 ? -EIO : -EAGAIN), HD_LINE_GLITCH);
+    assert_false(h.dead[0]);
+    assert_int_equal(hd_line_health_read(&h, 0, -EIO), HD_LINE_DISABLED); /* the 100th in a row */
+    assert_true(h.dead[0]);
+    assert_int_equal(hd_line_health_read(&h, 0, 0), HD_LINE_DISABLED);  /* stays disabled */
+    /* Line 1 had its own errors interleaved: unaffected. */
+    assert_int_equal(hd_line_health_read(&h, 1, -EIO), HD_LINE_GLITCH);
+    assert_int_equal(hd_line_health_read(&h, 1, 0), HD_LINE_OK);
+    assert_false(h.dead[1]);
+    assert_int_equal(hd_line_health_fd_error(&h, 2), HD_LINE_DISABLED);
+    assert_true(h.dead[2]);
+    assert_int_equal(hd_line_health_read(&h, HD_MAX_LINES, 0), HD_LINE_DISABLED); /* out of range: never a line */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(lockout_and_bounce), cmocka_unit_test(active_high_and_edges),
         cmocka_unit_test(simultaneous_lines), cmocka_unit_test(unknown_line),
         cmocka_unit_test(no_lockout_and_clock_step), cmocka_unit_test(host_commands),
+        cmocka_unit_test(line_error_policy),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

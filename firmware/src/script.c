@@ -1,0 +1,77 @@
+/* script.c - the script reader (pure: no device, no logging). */
+#define _POSIX_C_SOURCE 200809L
+#include "script.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+void hd_script_free(struct hd_script *s)
+{
+    free(s->events);
+    s->events = NULL;
+    s->count = 0;
+}
+
+static int refuse(struct hd_script *s, int rc, char err[HD_ERR_MAX], const char *name, unsigned no, const char *what)
+{
+    snprintf(err, HD_ERR_MAX, "%.400s:%u: %.900s", name, no, what);
+    hd_script_free(s);
+    return rc;
+}
+
+int hd_script_read(FILE *f, const char *name, struct hd_script *s, char err[HD_ERR_MAX])
+{
+    char line[HD_SCRIPT_LINE_MAX + 2];
+    unsigned no = 0;
+    size_t cap = 0;
+    memset(s, 0, sizeof *s);
+    while (fgets(line, sizeof line, f)) {
+        no++;
+        size_t len = strlen(line);
+        if (len && line[len - 1] == '\n')
+            line[--len] = '\0';
+        else if (!feof(f)) /* fgets split the line: the rest would read as a line of its own */
+            return refuse(s, -EINVAL, err, name, no, "line longer than 510 characters");
+        struct hd_event ev;
+        char msg[200];
+        int r = hd_host_parse(line, &ev, msg, sizeof msg);
+        if (r == 0)
+            continue;
+        if (r < 0)
+            return refuse(s, -EINVAL, err, name, no, msg);
+        if (ev.frame < 0)
+            return refuse(s, -EINVAL, err, name, no, "every script line needs 'at FRAME'");
+        if (s->count && ev.frame < s->events[s->count - 1].frame) {
+            snprintf(msg, sizeof msg, "frame %lld is before the previous line's (%lld)", (long long)ev.frame,
+                     (long long)s->events[s->count - 1].frame);
+            return refuse(s, -EINVAL, err, name, no, msg);
+        }
+        if (s->count == cap) {
+            cap = cap ? 2 * cap : 64;
+            struct hd_event *n = realloc(s->events, cap * sizeof *n);
+            if (!n)
+                return refuse(s, -ENOMEM, err, name, no, "out of memory");
+            s->events = n;
+        }
+        s->events[s->count++] = ev;
+    }
+    if (ferror(f))
+        return refuse(s, -EIO, err, name, no + 1, "read error");
+    return 0;
+}
+
+int hd_script_load(const char *path, struct hd_script *s, char err[HD_ERR_MAX])
+{
+    FILE *f = strcmp(path, "-") ? fopen(path, "r") : stdin;
+    if (!f) {
+        int e = errno;
+        snprintf(err, HD_ERR_MAX, "%.400s: cannot open script: %s", path, strerror(e));
+        memset(s, 0, sizeof *s);
+        return -e;
+    }
+    int rc = hd_script_read(f, path, s, err);
+    if (f != stdin)
+        fclose(f);
+    return rc;
+}
