@@ -4,6 +4,7 @@
  * exactly as stored (S32 = sample * 2^16); K foci at once play
  * g * sum_f s_f with g = sqrt(E_ref / E_sum), E_ref the mean energy of the
  * foci alone and E_sum the energy of their plain sum (docs/firmware.md). */
+#define _GNU_SOURCE
 #include "vboard.h"
 
 #include <math.h>
@@ -106,6 +107,14 @@ static double reference_gain(const haptic_table *t, const struct vb_expect *e, d
     return e->count == 1 ? 1.0 : sqrt(ref / sum);
 }
 
+static int expected_silent(const haptic_table *t, const struct vb_expect *e, uint32_t n)
+{
+    for (uint32_t c = 0; c < t->channel_count; c++)
+        if (voice_sum(t, e, n, c) != 0)
+            return 0;
+    return 1;
+}
+
 static int frame_silent(const int32_t *f, unsigned channels)
 {
     for (unsigned c = 0; c < channels; c++)
@@ -136,27 +145,34 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
         return;
     }
     uint32_t first = 0; /* first frame of the voice that is not silent */
-    while (first < N) {
-        int any = 0;
-        for (uint32_t c = 0; c < t->channel_count; c++)
-            any |= voice_sum(t, e, first, c) != 0;
-        if (any)
-            break;
+    while (first < N && expected_silent(t, e, first))
         first++;
-    }
-    size_t start = onset - first, tail = start + N + cap->rate_hz / 10;
-    if (onset < first || tail > to || isnan(vb_capture_time_ns(cap, start, 0)) ||
-        (seg + 1 < cap->segments + atomic_load(&cap->segment_count) && tail > (seg + 1)->start)) {
-        vb_result(0, e->name, "the voice at capture frame %zu is cut (overrun or end of the recording)", onset);
+    size_t start = onset - first;
+    if (onset < first || isnan(vb_capture_time_ns(cap, start, 0))) {
+        vb_result(0, e->name, "the voice at capture frame %zu starts before the recording", onset);
         return;
     }
     double e_ref, g = reference_gain(t, e, &e_ref);
     uint64_t mismatched = 0;
     double max_err = 0, e_mix = 0, num = 0, den = 0;
-    for (uint32_t n = 0; n < N; n++)
+    size_t pos = start, gap_frames = 0;
+    uint32_t gap_at = 0;
+    uint32_t n = 0;
+    for (; n < N && pos < to; n++, pos++) {
+        /* hapticd recovers an underrun (it was stalled longer than its
+         * buffer: emulation does that on a loaded host) by priming the
+         * buffer with silence, and the voice goes on after it: one such gap
+         * is allowed, and named. */
+        if (!gap_frames && frame_silent(cap->frames + pos * C, C) && !expected_silent(t, e, n)) {
+            gap_at = n;
+            for (; pos < to && frame_silent(cap->frames + pos * C, C); pos++)
+                gap_frames++;
+            if (pos == to)
+                break;
+        }
         for (uint32_t c = 0; c < C; c++) {
             double sum = c < t->channel_count ? voice_sum(t, e, n, c) : 0;
-            double got = cap->frames[(start + n) * C + c], want = g * sum * 65536.0;
+            double got = cap->frames[pos * C + c], want = g * sum * 65536.0;
             /* S32 from the Q30 gain: within 1 LSB plus the gain's quantization. */
             double tol = e->count == 1 ? 0 : 1.0 + fabs(sum) / 32768.0;
             double err = fabs(got - want);
@@ -166,17 +182,45 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
             num += got * sum;
             den += sum * sum * 65536.0;
         }
+    }
+    size_t tail = pos + cap->rate_hz / 10;
+    if (n < N || tail > to ||
+        (seg + 1 < cap->segments + atomic_load(&cap->segment_count) && tail > (seg + 1)->start)) {
+        vb_result(0, e->name, "the voice at capture frame %zu is cut (overrun or end of the recording)", onset);
+        return;
+    }
     uint64_t stray = 0;
-    for (size_t i = start + N; i < tail; i++)
-        stray += !frame_silent(cap->frames + i * C, C);
+    size_t first_stray = 0;
+    for (size_t i = pos; i < tail; i++)
+        if (!frame_silent(cap->frames + i * C, C) && !stray++)
+            first_stray = i;
+    /* Something played after the voice: say which focus it starts like. */
+    char stray_text[96] = "";
+    if (stray) {
+        int match = -1;
+        for (uint32_t f = 0; f < t->focus_count && match < 0; f++) {
+            const int16_t *sig = haptic_table_signal(t, f);
+            int same = 1;
+            for (uint32_t c = 0; c < C && c < t->channel_count; c++)
+                same &= cap->frames[first_stray * C + c] == (int32_t)sig[c] * 65536;
+            if (same)
+                match = (int)f;
+        }
+        snprintf(stray_text, sizeof stray_text, " (from %.1f ms after the voice start%s%d)",
+                 1e3 * (double)(first_stray - start) / cap->rate_hz, match >= 0 ? ", focus index " : ", no focus alone: ", match);
+    }
     e->found = 1;
     e->latency_s = (vb_capture_time_ns(cap, start, 1) - (double)e->t_ns) / 1e9;
     double energy_rel = fabs(e_mix - e_ref) / e_ref;
+    char gap_text[96] = "";
+    if (gap_frames)
+        snprintf(gap_text, sizeof gap_text, " (an underrun's %zu frames of silence after its frame %u)", gap_frames,
+                 gap_at);
     int ok = mismatched == 0 && stray == 0 && energy_rel < 1e-3;
     vb_result(ok, e->name,
-              "%u frames x %u ch at capture frame %zu: %llu samples off (max error %.0f LSB), "
-              "gain %.6f (reference %.6f), mix energy / E_ref - 1 = %.1e, %llu non-silent frames after; "
+              "%u frames x %u ch at capture frame %zu%s: %llu samples off (max error %.0f LSB), "
+              "gain %.6f (reference %.6f), mix energy / E_ref - 1 = %.1e, %llu non-silent frames after%s; "
               "voice start on the capture %.2f ms after the trigger",
-              N, C, start, (unsigned long long)mismatched, max_err, num / den, g, (e_mix - e_ref) / e_ref,
-              (unsigned long long)stray, e->latency_s * 1e3);
+              N, C, start, gap_text, (unsigned long long)mismatched, max_err, num / den, g, (e_mix - e_ref) / e_ref,
+              (unsigned long long)stray, stray_text, e->latency_s * 1e3);
 }

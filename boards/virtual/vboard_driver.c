@@ -126,7 +126,8 @@ static int stop_hapticd(struct run *r)
 }
 
 /* One host trigger command; its time is taken just before the write. */
-static void trigger(struct run *r, const char *name, const char *command, unsigned count, uint32_t a, uint32_t b)
+static void trigger_then(struct run *r, const char *name, const char *command, unsigned count, uint32_t a,
+                         uint32_t b, int wait_ms)
 {
     if (r->expect_count == MAX_EXPECT)
         return;
@@ -137,7 +138,12 @@ static void trigger(struct run *r, const char *name, const char *command, unsign
     e->t_ns = vb_now_ns();
     if (write(r->fifo, line, (size_t)n) != n)
         vb_result(0, name, "writing the trigger FIFO: %s", strerror(errno));
-    sleep_ms(SPACING_MS);
+    sleep_ms(wait_ms);
+}
+
+static void trigger(struct run *r, const char *name, const char *command, unsigned count, uint32_t a, uint32_t b)
+{
+    trigger_then(r, name, command, count, a, b, SPACING_MS);
 }
 
 /* A touch at panel coordinates; its time is the kernel's timestamp of the
@@ -222,8 +228,11 @@ static void run_triggers(struct run *r)
               1e3 * (double)r->cap.buffer_frames / r->cap.rate_hz, atomic_load(&r->cap.overruns) - overruns);
     trigger(r, "trigger after the capture overrun", "focus 3", 1, 3, 0);
 
-    /* hapticd stopped for longer than its buffer: the playback side
-     * underruns; hapticd recovers and plays the next trigger intact. */
+    /* hapticd stopped 10 ms into a voice for longer than its buffer: the
+     * playback side underruns; hapticd recovers (the buffer primed with
+     * silence), the voice goes on after that silence, and the next trigger
+     * plays intact. */
+    trigger_then(r, "voice across a playback underrun", "focus 2", 1, 2, 0, 10);
     kill(r->pid, SIGSTOP);
     sleep_ms(150);
     kill(r->pid, SIGCONT);
