@@ -41,8 +41,11 @@ struct vb_expect {
 
 struct vb_capture;
 /* Look for the voice after e->t_ns and before `until_ns` (the next trigger)
- * and compare it sample by sample with the table; one PASS/FAIL line. */
-void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct vb_expect *e, uint64_t until_ns);
+ * and compare it sample by sample with the table; one PASS/FAIL line. One
+ * run of silence inside the voice is allowed if at least `underrun_frames`
+ * long (hapticd primes its whole buffer with silence after an underrun). */
+void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct vb_expect *e, uint64_t until_ns,
+                    size_t underrun_frames);
 
 /* ---- capture (vboard_capture.c) ---- */
 

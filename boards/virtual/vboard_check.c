@@ -123,7 +123,19 @@ static int frame_silent(const int32_t *f, unsigned channels)
     return 1;
 }
 
-void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct vb_expect *e, uint64_t until_ns)
+/* At an underrun the driver's position runs past the last frame written by
+ * up to one timer tick, and the ring buffer's old contents play: the frames
+ * written one buffer earlier. Recognized exactly, so they can be named. */
+static int frame_stale(const struct vb_capture *cap, size_t i, size_t buffer_frames)
+{
+    const unsigned C = cap->channels;
+    if (!buffer_frames || i < buffer_frames || frame_silent(cap->frames + i * C, C))
+        return 0;
+    return !memcmp(cap->frames + i * C, cap->frames + (i - buffer_frames) * C, C * sizeof *cap->frames);
+}
+
+void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct vb_expect *e, uint64_t until_ns,
+                    size_t underrun_frames)
 {
     const unsigned C = cap->channels;
     const uint32_t N = t->samples_per_signal;
@@ -155,7 +167,7 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
     double e_ref, g = reference_gain(t, e, &e_ref);
     uint64_t mismatched = 0;
     double max_err = 0, e_mix = 0, num = 0, den = 0;
-    size_t pos = start, gap_frames = 0;
+    size_t pos = start, gap_frames = 0, stale = 0;
     uint32_t gap_at = 0;
     uint32_t n = 0;
     for (; n < N && pos < to; n++, pos++) {
@@ -163,12 +175,21 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
          * buffer: emulation does that on a loaded host) by priming the
          * buffer with silence, and the voice goes on after it: one such gap
          * is allowed, and named. */
-        if (!gap_frames && frame_silent(cap->frames + pos * C, C) && !expected_silent(t, e, n)) {
+        if (!gap_frames && !expected_silent(t, e, n) &&
+            (frame_silent(cap->frames + pos * C, C) || frame_stale(cap, pos, underrun_frames))) {
             gap_at = n;
-            for (; pos < to && frame_silent(cap->frames + pos * C, C); pos++)
+            size_t gap_start = pos;
+            for (; pos < to && (frame_silent(cap->frames + pos * C, C) || frame_stale(cap, pos, underrun_frames)); pos++) {
                 gap_frames++;
+                stale += frame_stale(cap, pos, underrun_frames);
+            }
             if (pos == to)
                 break;
+            if (gap_frames < underrun_frames) { /* not an underrun's: compare the silence */
+                pos = gap_start;
+                gap_frames = (size_t)-1;
+                stale = 0;
+            }
         }
         for (uint32_t c = 0; c < C; c++) {
             double sum = c < t->channel_count ? voice_sum(t, e, n, c) : 0;
@@ -191,9 +212,12 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
     }
     uint64_t stray = 0;
     size_t first_stray = 0;
-    for (size_t i = pos; i < tail; i++)
-        if (!frame_silent(cap->frames + i * C, C) && !stray++)
+    for (size_t i = pos; i < tail; i++) {
+        if (frame_stale(cap, i, underrun_frames))
+            stale++;
+        else if (!frame_silent(cap->frames + i * C, C) && !stray++)
             first_stray = i;
+    }
     /* Something played after the voice: say which focus it starts like. */
     char stray_text[96] = "";
     if (stray) {
@@ -212,10 +236,16 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
     e->found = 1;
     e->latency_s = (vb_capture_time_ns(cap, start, 1) - (double)e->t_ns) / 1e9;
     double energy_rel = fabs(e_mix - e_ref) / e_ref;
-    char gap_text[96] = "";
+    char gap_text[160] = "";
+    if (gap_frames == (size_t)-1)
+        gap_frames = 0;
+    int n_text = 0;
     if (gap_frames)
-        snprintf(gap_text, sizeof gap_text, " (an underrun's %zu frames of silence after its frame %u)", gap_frames,
-                 gap_at);
+        n_text = snprintf(gap_text, sizeof gap_text, " (an underrun's %zu frames of silence after its frame %u)",
+                          gap_frames, gap_at);
+    if (stale)
+        snprintf(gap_text + n_text, sizeof gap_text - (size_t)n_text,
+                 " (%zu stale frames at an underrun: the frames of one buffer earlier)", stale);
     int ok = mismatched == 0 && stray == 0 && energy_rel < 1e-3;
     vb_result(ok, e->name,
               "%u frames x %u ch at capture frame %zu%s: %llu samples off (max error %.0f LSB), "

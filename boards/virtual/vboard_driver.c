@@ -339,7 +339,8 @@ static int run(struct run *r)
               atomic_load(&r->cap.segment_count), r->cap.error ? ": " : "",
               r->cap.error ? snd_strerror(r->cap.error) : "");
     for (unsigned i = 0; i < r->expect_count; i++)
-        vb_check_voice(&r->cap, &r->table, &r->expect[i], i + 1 < r->expect_count ? r->expect[i + 1].t_ns : 0);
+        vb_check_voice(&r->cap, &r->table, &r->expect[i], i + 1 < r->expect_count ? r->expect[i + 1].t_ns : 0,
+                       (size_t)(buffer_s * r->cap.rate_hz));
     report_latency(r, buffer_s > 0 ? buffer_s : 0.1);
     const char *lat = read_text(LATENCY_PATH);
     if (lat)
