@@ -170,7 +170,7 @@ static void touch(struct run *r, const char *name, unsigned count, const int *x,
 }
 
 /* The panel's axes span the synthetic table's 0.2 m x 0.15 m plate
- * (boards/virtual/board.ini [touch]); a touch on a focus plays it. */
+ * (boards/virtual/touch.ini); a touch on a focus plays it. */
 static void focus_on_panel(const haptic_table *t, uint32_t index, int *x, int *y)
 {
     haptic_focus_info f;
