@@ -1,0 +1,389 @@
+/* vboard-driver: the guest side of scripts/virtual-board.
+ *
+ *   vboard-driver make-table OUT.htab
+ *   vboard-driver run --hapticd EXE --board INI --table HTAB [--tick-hz HZ] [--touch]
+ *
+ * `run` starts hapticd on the board (snd-aloop's playback side), records the
+ * capture side, sends triggers through hapticd's host trigger FIFO (and with
+ * --touch, touches through a uinput panel), provokes a capture overrun and a
+ * playback underrun, stops hapticd, and checks every voice in the recording
+ * against the table. One "vboard: PASS|FAIL name: detail" line per check;
+ * exit status 1 if any failed. */
+#define _GNU_SOURCE
+#include "vboard.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <getopt.h>
+#include <math.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+extern char **environ;
+
+#define FIFO_PATH "/tmp/vboard-triggers"
+#define LOG_PATH "/tmp/hapticd.log"
+#define LATENCY_PATH "/tmp/hapticd-latency.txt"
+#define CAPTURE_PCM "hw:Loopback,1,0" /* snd-aloop: what hw:Loopback,0,0 plays */
+#define SPACING_MS 250                /* between triggers: a 50 ms voice and a silent gap */
+#define MAX_EXPECT 16
+
+struct run {
+    const char *hapticd, *board, *table_path;
+    int touch;
+    unsigned tick_hz;
+    haptic_table table;
+    pid_t pid;
+    int fifo;
+    struct vb_capture cap;
+    struct vb_touch panel;
+    struct vb_expect expect[MAX_EXPECT];
+    unsigned expect_count, touch_first;  /* expect[touch_first..] are touches */
+};
+
+static void sleep_ms(int ms)
+{
+    struct timespec ts = {ms / 1000, (long)(ms % 1000) * 1000000};
+    while (nanosleep(&ts, &ts) && errno == EINTR) {
+    }
+}
+
+static char *read_text(const char *path)
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return NULL;
+    static char buf[1 << 16];
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    buf[n] = '\0';
+    fclose(f);
+    return buf;
+}
+
+static int log_has(const char *needle)
+{
+    const char *text = read_text(LOG_PATH);
+    return text && strstr(text, needle);
+}
+
+static int start_hapticd(struct run *r)
+{
+    unlink(FIFO_PATH);
+    if (mkfifo(FIFO_PATH, 0600) != 0)
+        return -errno;
+    char *argv[] = {(char *)r->hapticd, "--board", (char *)r->board, "--table", (char *)r->table_path,
+                    "--triggers", FIFO_PATH, "--latency-report", LATENCY_PATH, NULL};
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, LOG_PATH, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    int rc = posix_spawn(&r->pid, r->hapticd, &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc)
+        return -rc;
+    /* Under emulation start-up takes a while; hapticd says when it runs. */
+    for (int i = 0; i < 300; i++) {
+        if (log_has("running ("))
+            break;
+        int st;
+        if (waitpid(r->pid, &st, WNOHANG) == r->pid) {
+            r->pid = 0;
+            return -ECHILD;
+        }
+        sleep_ms(50);
+    }
+    if (!log_has("running ("))
+        return -ETIMEDOUT;
+    /* hapticd holds the FIFO open read-write: this open does not block. */
+    r->fifo = open(FIFO_PATH, O_WRONLY | O_CLOEXEC);
+    return r->fifo < 0 ? -errno : 0;
+}
+
+static int stop_hapticd(struct run *r)
+{
+    if (r->pid <= 0)
+        return -1;
+    kill(r->pid, SIGTERM);
+    for (int i = 0; i < 200; i++) {
+        int st;
+        if (waitpid(r->pid, &st, WNOHANG) == r->pid) {
+            r->pid = 0;
+            return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+        }
+        sleep_ms(50);
+    }
+    kill(r->pid, SIGKILL);
+    waitpid(r->pid, NULL, 0);
+    r->pid = 0;
+    return -1;
+}
+
+/* One host trigger command; its time is taken just before the write. */
+static void trigger_then(struct run *r, const char *name, const char *command, unsigned count, uint32_t a,
+                         uint32_t b, int wait_ms)
+{
+    if (r->expect_count == MAX_EXPECT)
+        return;
+    struct vb_expect *e = &r->expect[r->expect_count++];
+    *e = (struct vb_expect){.name = name, .index = {a, b}, .count = count};
+    char line[64];
+    int n = snprintf(line, sizeof line, "%s\n", command);
+    e->t_ns = vb_now_ns();
+    if (write(r->fifo, line, (size_t)n) != n)
+        vb_result(0, name, "writing the trigger FIFO: %s", strerror(errno));
+    sleep_ms(wait_ms);
+}
+
+static void trigger(struct run *r, const char *name, const char *command, unsigned count, uint32_t a, uint32_t b)
+{
+    trigger_then(r, name, command, count, a, b, SPACING_MS);
+}
+
+/* A touch at panel coordinates; its time is the kernel's timestamp of the
+ * input frame (read back from the panel's evdev node). */
+static void touch(struct run *r, const char *name, unsigned count, const int *x, const int *y, uint32_t a, uint32_t b)
+{
+    if (r->expect_count == MAX_EXPECT)
+        return;
+    struct vb_expect *e = &r->expect[r->expect_count++];
+    *e = (struct vb_expect){.name = name, .index = {a, b}, .count = count};
+    int pos[2][2];
+    int rc = vb_touch_down(&r->panel, count, x, y);
+    if (!rc)
+        rc = vb_touch_read_frame(&r->panel, 1000, &e->t_ns, pos);
+    sleep_ms(30);
+    if (!rc)
+        rc = vb_touch_up(&r->panel, count);
+    uint64_t up_ns;
+    if (!rc)
+        rc = vb_touch_read_frame(&r->panel, 1000, &up_ns, pos);
+    if (rc)
+        vb_result(0, name, "uinput: %s", strerror(-rc));
+    sleep_ms(SPACING_MS - 30);
+}
+
+/* The panel's axes span the synthetic table's 0.2 m x 0.15 m plate
+ * (boards/virtual/touch.ini); a touch on a focus plays it. */
+static void focus_on_panel(const haptic_table *t, uint32_t index, int *x, int *y)
+{
+    haptic_focus_info f;
+    haptic_table_focus(t, index, &f);
+    *x = (int)lround(f.x_m / 0.2 * VB_TOUCH_X_MAX);
+    *y = (int)lround(f.y_m / 0.15 * VB_TOUCH_Y_MAX);
+}
+
+static void check_uinput(struct run *r)
+{
+    int rc = vb_touch_open(&r->panel);
+    if (rc) {
+        vb_result(0, "uinput panel", "creating %s: %s", VB_TOUCH_NAME, strerror(-rc));
+        return;
+    }
+    int x[1] = {1234}, y[1] = {2345}, pos[2][2] = {{-1, -1}, {-1, -1}};
+    uint64_t before = vb_now_ns(), t_ns = 0, up_ns = 0;
+    rc = vb_touch_down(&r->panel, 1, x, y);
+    uint64_t after = vb_now_ns();
+    if (!rc)
+        rc = vb_touch_read_frame(&r->panel, 1000, &t_ns, pos);
+    if (!rc && !(rc = vb_touch_up(&r->panel, 1)))
+        rc = vb_touch_read_frame(&r->panel, 1000, &up_ns, (int[2][2]){{0}});
+    /* evdev stamps in microseconds: allow the truncation. */
+    int ok = !rc && pos[0][0] == x[0] && pos[0][1] == y[0] && t_ns + 1000 >= before && t_ns <= after;
+    vb_result(ok, "uinput panel", "%s: contact at (%d, %d) read back as (%d, %d), stamped %.3f ms into the write%s%s",
+              r->panel.evdev_path, x[0], y[0], pos[0][0], pos[0][1], ((double)t_ns - (double)before) / 1e6,
+              rc ? ": " : "", rc ? strerror(-rc) : "");
+}
+
+static void run_triggers(struct run *r)
+{
+    for (uint32_t f = 0; f < r->table.focus_count && f < 4; f++) {
+        static char names[4][32], cmds[4][32];
+        haptic_focus_info info;
+        haptic_table_focus(&r->table, f, &info);
+        snprintf(names[f], sizeof names[f], "trigger focus %u", info.id);
+        snprintf(cmds[f], sizeof cmds[f], "focus %u", info.id);
+        trigger(r, names[f], cmds[f], 1, f, 0);
+    }
+    haptic_focus_info f1, f2;
+    haptic_table_focus(&r->table, 1, &f1);
+    haptic_table_focus(&r->table, 2, &f2);
+    static char both[32];
+    snprintf(both, sizeof both, "foci %u,%u", f1.id, f2.id);
+    trigger(r, "two foci at once", both, 2, 1, 2);
+
+    /* The reader stops for longer than the capture buffer: the capture side
+     * overruns, recovers, and the next voice is recorded intact. */
+    unsigned overruns = atomic_load(&r->cap.overruns);
+    atomic_store(&r->cap.stall_ms, 400);
+    sleep_ms(600);
+    vb_result(atomic_load(&r->cap.overruns) > overruns, "capture overrun",
+              "reader stopped 400 ms (capture buffer %.0f ms): %u overrun(s), recording restarted",
+              1e3 * (double)r->cap.buffer_frames / r->cap.rate_hz, atomic_load(&r->cap.overruns) - overruns);
+    trigger(r, "trigger after the capture overrun", "focus 3", 1, 3, 0);
+
+    /* hapticd stopped 10 ms into a voice for longer than its buffer: the
+     * playback side underruns; hapticd recovers (the buffer primed with
+     * silence), the voice goes on after that silence, and the next trigger
+     * plays intact. */
+    trigger_then(r, "voice across a playback underrun", "focus 2", 1, 2, 0, 10);
+    kill(r->pid, SIGSTOP);
+    sleep_ms(150);
+    kill(r->pid, SIGCONT);
+    sleep_ms(400);
+    trigger(r, "trigger after the playback underrun", "focus 0", 1, 0, 0);
+}
+
+static void run_touches(struct run *r)
+{
+    for (uint32_t f = 0; f < r->table.focus_count && f < 4; f++) {
+        static char names[4][32];
+        int x, y;
+        focus_on_panel(&r->table, f, &x, &y);
+        snprintf(names[f], sizeof names[f], "touch on focus %u", f);
+        touch(r, names[f], 1, &x, &y, f, 0);
+    }
+    int x[2], y[2];
+    focus_on_panel(&r->table, 0, &x[0], &y[0]);
+    focus_on_panel(&r->table, 3, &x[1], &y[1]);
+    touch(r, "two contacts at once", 2, x, y, 0, 3);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Trigger (the FIFO write, or the kernel's stamp of a touch) to the tick at
+ * which snd-aloop handed the voice's first frame to the capture side. With
+ * the trigger rewound into the queue that is the next tick or so; queued
+ * behind the buffer it would be about the buffer time. Emulation stalls the
+ * whole guest now and then (an unprovoked xrun shows it), so the median
+ * judges, with a tick of slack for a loaded host, and every voice must be
+ * causal. */
+static void report_latency(const struct run *r, double buffer_s, const char *name, unsigned from, unsigned to)
+{
+    double lat[MAX_EXPECT];
+    unsigned n = 0;
+    for (unsigned i = from; i < to; i++)
+        if (r->expect[i].found)
+            lat[n++] = r->expect[i].latency_s;
+    if (!n)
+        return;
+    qsort(lat, n, sizeof lat[0], cmp_double);
+    double median = n % 2 ? lat[n / 2] : (lat[n / 2 - 1] + lat[n / 2]) / 2;
+    double tick_s = r->tick_hz ? 1.0 / r->tick_hz : 0.004;
+    /* Causal within one tick: the capture's timeline assumes evenly spaced
+     * ticks, and under emulation a tick comes late now and then. */
+    int ok = lat[0] > -tick_s && median < 2 * tick_s + 1e-3;
+    vb_result(ok, name, "trigger to first frame on the capture over %u voices: min %.2f ms, "
+              "median %.2f ms, max %.2f ms (timer tick %.1f ms, hapticd's buffer %.2f ms)", n, lat[0] * 1e3,
+              median * 1e3, lat[n - 1] * 1e3, tick_s * 1e3, buffer_s * 1e3);
+}
+
+static long report_value(const char *key)
+{
+    const char *text = read_text(LATENCY_PATH), *p = text ? strstr(text, key) : NULL;
+    return p ? strtol(p + strlen(key), NULL, 10) : -1;
+}
+
+static int run(struct run *r)
+{
+    haptic_table_error err;
+    if (haptic_table_open(r->table_path, &r->table, &err) != 0) {
+        vb_result(0, "table", "%s: %s", r->table_path, err.message);
+        return 1;
+    }
+    r->panel.uinput_fd = r->panel.evdev_fd = -1;
+    check_uinput(r); /* before hapticd, so a board that names the panel finds it */
+    int rc = start_hapticd(r);
+    vb_result(rc == 0, "hapticd starts", "on %s: %s", r->board, rc ? strerror(-rc) : "running");
+    if (rc) {
+        printf("%s", read_text(LOG_PATH) ? read_text(LOG_PATH) : "");
+        return 1;
+    }
+    vb_result(log_has("triggers start at once"), "rewind", "snd-aloop rewinds queued frames (hapticd: %s)",
+              log_has("triggers start at once") ? "triggers start at once" : "cannot rewind");
+    if ((rc = vb_capture_open(&r->cap, CAPTURE_PCM, r->table.channel_count, r->table.sample_rate_hz, 20.0)) ||
+        (rc = vb_capture_start(&r->cap))) {
+        vb_result(0, "capture", "%s: %s", CAPTURE_PCM, snd_strerror(rc));
+        stop_hapticd(r);
+        return 1;
+    }
+    r->cap.tick_hz = r->tick_hz;
+    sleep_ms(300); /* a few timer ticks for the capture clock's estimate */
+    run_triggers(r);
+    r->touch_first = r->expect_count;
+    if (r->touch && r->panel.uinput_fd >= 0)
+        run_touches(r);
+    sleep_ms(200);
+    vb_capture_stop(&r->cap);
+    int status = stop_hapticd(r);
+    vb_result(status == 0, "hapticd stops", "SIGTERM: exit status %d", status);
+    /* hapticd's buffer: period x periods of the board, as granted (logged). */
+    double buffer_s = 0;
+    const char *text = read_text(LOG_PATH), *p = text ? strstr(text, "frames = ") : NULL;
+    if (p)
+        buffer_s = strtod(p + 9, NULL) / 1e3;
+    vb_result(log_has("xrun recovered"), "playback underrun",
+              "hapticd stopped 150 ms (buffer %.1f ms): %s; %ld xrun(s) in all, %ld trigger(s) rewound in",
+              buffer_s * 1e3, log_has("xrun recovered") ? "xrun recovered" : "no xrun reported",
+              report_value("xruns "), report_value("rewinds "));
+    vb_result(r->cap.error == 0, "capture", "%zu frames recorded, %u segment(s)%s%s", atomic_load(&r->cap.count),
+              atomic_load(&r->cap.segment_count), r->cap.error ? ": " : "",
+              r->cap.error ? snd_strerror(r->cap.error) : "");
+    for (unsigned i = 0; i < r->expect_count; i++)
+        vb_check_voice(&r->cap, &r->table, &r->expect[i], i + 1 < r->expect_count ? r->expect[i + 1].t_ns : 0,
+                       (size_t)(buffer_s * r->cap.rate_hz));
+    report_latency(r, buffer_s > 0 ? buffer_s : 0.1, "onset latency", 0, r->touch_first);
+    if (r->touch_first < r->expect_count) /* from the kernel's stamp of the input frame */
+        report_latency(r, buffer_s > 0 ? buffer_s : 0.1, "touch onset latency", r->touch_first, r->expect_count);
+    const char *lat = read_text(LATENCY_PATH);
+    if (lat)
+        printf("hapticd latency report:\n%s", lat);
+    printf("hapticd log:\n%s", read_text(LOG_PATH) ? read_text(LOG_PATH) : "");
+    vb_touch_close(&r->panel);
+    vb_capture_close(&r->cap);
+    haptic_table_close(&r->table);
+    return vb_failed() ? 1 : 0;
+}
+
+int main(int argc, char **argv)
+{
+    setvbuf(stdout, NULL, _IOLBF, 0);
+    if (argc == 3 && !strcmp(argv[1], "make-table"))
+        return vb_make_table(argv[2]) ? 1 : 0;
+    if (argc < 2 || strcmp(argv[1], "run")) {
+        fprintf(stderr, "usage: vboard-driver make-table OUT.htab\n"
+                        "       vboard-driver run --hapticd EXE --board INI --table HTAB [--tick-hz HZ] [--touch]\n");
+        return 2;
+    }
+    static struct run r;
+    static const struct option opts[] = {{"hapticd", required_argument, 0, 'h'}, {"board", required_argument, 0, 'b'},
+                                         {"table", required_argument, 0, 't'},   {"touch", no_argument, 0, 'T'},
+                                         {"tick-hz", required_argument, 0, 'z'}, {0, 0, 0, 0}};
+    int c;
+    optind = 2;
+    while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
+        switch (c) {
+        case 'h': r.hapticd = optarg; break;
+        case 'b': r.board = optarg; break;
+        case 't': r.table_path = optarg; break;
+        case 'T': r.touch = 1; break;
+        case 'z': r.tick_hz = (unsigned)strtoul(optarg, NULL, 10); break;
+        default: return 2;
+        }
+    }
+    if (!r.hapticd || !r.board || !r.table_path) {
+        fprintf(stderr, "vboard-driver run: --hapticd, --board and --table are required\n");
+        return 2;
+    }
+    return run(&r);
+}
