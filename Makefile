@@ -1,6 +1,6 @@
 # The two set-up commands of the README, plus the longer jobs.
 # Each installs what it needs (scripts/install-deps is idempotent).
-.PHONY: demo test bench fuzz clean
+.PHONY: demo test bench fuzz package clean
 
 demo:            ## calibrate the default scene and play it on the simulated device
 	scripts/demo
@@ -13,6 +13,9 @@ bench:           ## micro-benchmarks and studies (long; figures go to docs/BENCH
 
 fuzz:            ## longer fuzzing run of the table reader (10 min per harness)
 	scripts/fuzz 600
+
+package:         ## Debian packages (hapticd, calibgen) in out/packages/
+	scripts/package
 
 clean:
 	rm -rf build out
