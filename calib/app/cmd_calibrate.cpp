@@ -3,10 +3,13 @@
 #include "app/commands.h"
 #include "app/progress.h"
 #include "engine/effects/effects_report.h"
+#include "model/cost_model.h"
+#include "model/error_model.h"
+#include "model/resources.h"
 #include "pipeline/calibrate.h"
+#include "pipeline/plan.h"
 #include "report/calibration_report.h"
 #include "scene/calibration_input.h"
-#include "study/accuracy.h"
 
 #include <haptic_table.h>
 #include <sndfile.h>
@@ -16,6 +19,7 @@
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -35,20 +39,118 @@ std::string read_bytes(const std::string &path)
     return ss.str();
 }
 
-pipeline::CalibrationInput input_from_scene(const std::string &path)
+std::string fmt(const char *f, double v)
+{
+    char b[64];
+    std::snprintf(b, sizeof b, f, v);
+    return b;
+}
+
+// What calibrate and verify (and the dry run) need before anything runs: the
+// scene after its accuracy target, as the pipeline's input, checked.
+struct Prepared {
+    scene::Scene scene;
+    std::optional<model::Choice> choice;
+    pipeline::CalibrationInput input;
+};
+
+Prepared prepare(const std::string &path)
 {
     const std::string bytes = read_bytes(path);
-    scene::Scene s = scene::parse_scene(bytes, path);
-    if (const auto c = study::apply_accuracy_target(s))  // calibration.accuracy picks the grid (docs/ACCURACY.md)
-        std::fprintf(stderr, "accuracy target %g %%: %.2f points per wavelength (predicted error %+.3f %%)\n",
-                     100 * *s.calibration->accuracy, c->points_per_wavelength, 100 * c->predicted_error);
-    pipeline::CalibrationInput in = scene::calibration_input(s, scene::build_plate(s), bytes);
+    Prepared p{scene::parse_scene(bytes, path), std::nullopt, {}};
+    if (!p.scene.calibration_sections())
+        throw std::runtime_error(path + ": not a calibration scene: it needs [active_area], [exciters], [foci], "
+                                        "[pulse] and [calibration] sections");
+    p.choice = model::apply_accuracy_target(p.scene);  // calibration.accuracy picks the grid (docs/ACCURACY.md)
+    p.input = scene::calibration_input(p.scene, scene::build_plate(p.scene), bytes);
     try {
-        pipeline::check_feasible(in);
+        pipeline::check_feasible(p.input);
     } catch (const std::invalid_argument &e) {
         throw std::runtime_error(path + ": " + e.what());
     }
-    return in;
+    return p;
+}
+
+struct LimitArgs {
+    std::optional<double> max_memory_mb, max_seconds;
+    model::Limits limits() const { return model::machine_limits(max_memory_mb, max_seconds); }
+};
+
+void add_limit_options(CLI::App *cmd, LimitArgs &l)
+{
+    cmd->add_option("--max-memory", l.max_memory_mb,
+                    "Refuse (before simulating) a run predicted to need more than this many MB (default: physical "
+                    "memory)");
+    cmd->add_option("--max-seconds", l.max_seconds,
+                    "Refuse (before simulating) a run predicted to take longer than this (default: no limit)");
+}
+
+// Plans, prices and refuses what does not fit, before any simulation.
+pipeline::CalibrationInput input_from_scene(const std::string &path, const LimitArgs &l, bool verification_only)
+{
+    Prepared p = prepare(path);
+    if (p.choice)
+        std::fprintf(stderr, "accuracy target %g %%: %.2f points per wavelength (predicted error %+.3f %%)\n",
+                     100 * *p.scene.calibration->accuracy, p.choice->points_per_wavelength,
+                     100 * p.choice->predicted_error);
+    try {
+        model::refuse_unaffordable(p.input, l.limits(), path, verification_only);
+    } catch (const std::invalid_argument &e) {
+        throw std::runtime_error(path + ": " + e.what());
+    }
+    return std::move(p.input);
+}
+
+// `calibgen calibrate --dry-run`: the setting the scene gets (after its
+// accuracy target, if any), the predicted phase error at f_max, run time and
+// peak memory of the calibration, without running it; then the verdict.
+int dry_run(const std::string &path, const LimitArgs &l)
+{
+    Prepared p = prepare(path);
+    const pipeline::CalibrationInput &in = p.input;
+    const scene::Scene &s = p.scene;
+    pipeline::CalibrationPlan plan;
+    try {
+        plan = pipeline::plan(in);
+    } catch (const std::invalid_argument &e) {
+        throw std::runtime_error(path + ": " + e.what());
+    }
+    const model::Limits limits = l.limits();
+    // Time the cost model only for grids whose fields fit (the timing runs them).
+    const model::Prediction bare = model::predict(in, plan, nullptr);
+    const model::CostModel cost = model::measure_cost(in, plan, bare.memory_mb <= limits.memory_mb ? 5e6 : 2e6);
+    const model::Prediction pr = model::predict(in, plan, &cost);
+    const double f_max = model::scene_f_max_hz(s);
+    const engine::Grid &g = in.plate->grid();
+    const double lambda = model::kirchhoff_wavelength_m(in.plate->kappa(), f_max);
+    std::ostringstream o;
+    o << "scene " << s.name << " (dry run: nothing simulated)\n";
+    if (p.choice)
+        o << "  accuracy target   " << fmt("%g %%", 100 * *s.calibration->accuracy)
+          << " phase-velocity error at f_max: cheapest grid " << fmt("%.2f", p.choice->points_per_wavelength)
+          << " points per wavelength\n";
+    else
+        o << "  accuracy target   none (calibration.accuracy unset): the scene's [simulation] settings\n";
+    o << "  setting           " << fmt("%.2f", s.simulation.points_per_wavelength) << " points per wavelength at "
+      << fmt("%.0f Hz", f_max) << " (grid " << fmt("%.2f", lambda / g.h) << "), "
+      << engine::precision_name(in.simulation.precision) << ", Courant " << fmt("%g", in.simulation.courant)
+      << ", model " << (in.effects.thick_plate ? "mindlin" : "kirchhoff") << "\n";
+    o << "  grid              " << g.nx << " x " << g.ny << " cells of " << fmt("%.2f mm", g.h * 1e3) << ", step "
+      << fmt("%.3g us", plan.time_step_s * 1e6) << ", " << plan.window_steps << " steps per "
+      << fmt("%g s", in.calibration.window_s) << " window\n";
+    o << "  predicted error   "
+      << fmt("%+.3f %%", 100 * model::predicted_phase_error(s.plate.material, s.plate.thickness_m, f_max, g.h,
+                                                            plan.time_step_s))
+      << " phase velocity at f_max vs exact A0\n";
+    o << "  predicted time    " << fmt("%.1f s", pr.seconds) << " (" << plan.emitters.size() << " simulations x "
+      << plan.sites.size() << " sites, " << cost.threads << " threads, "
+      << fmt("%.3g ms", cost.seconds_per_step_simulate * 1e3) << " per step measured now)\n";
+    o << "  predicted memory  " << fmt("%.0f MB", pr.memory_mb) << " peak resident (limit "
+      << fmt("%.0f MB", limits.memory_mb) << ", " << limits.memory_source << ")\n";
+    std::printf("%s", o.str().c_str());
+    std::fflush(stdout);
+    model::refuse_if_over(path, pr.memory_mb, pr.seconds, limits, model::calibration_cause(in, plan, pr));
+    return 0;
 }
 
 void print_summary(const pipeline::Verification &v, const pipeline::CalibrationInput &in, bool table_mode)
@@ -83,18 +185,17 @@ struct CalibrateArgs {
     std::string scene, table, report;
     bool quiet = false;
     bool dry_run = false;
+    LimitArgs limits;
 };
 
 int run_calibrate(const CalibrateArgs &a)
 {
-    if (a.dry_run) {
-        std::printf("%s", study::dry_run_summary(a.scene).c_str());
-        return 0;
-    }
+    if (a.dry_run)
+        return dry_run(a.scene, a.limits);
     if (a.table.empty())
         throw std::runtime_error("calibrate: --output TABLE.htab is required (unless --dry-run)");
     const auto t0 = Clock::now();
-    pipeline::CalibrationInput in = input_from_scene(a.scene);
+    pipeline::CalibrationInput in = input_from_scene(a.scene, a.limits, false);
     Progress progress(a.quiet);
     const auto &g = in.plate->grid();
     progress.note("scene " + in.scene_name + ": grid " + std::to_string(g.nx) + " x " + std::to_string(g.ny) +
@@ -127,19 +228,20 @@ int run_calibrate(const CalibrateArgs &a)
         ctx.table_path = a.table;
         ctx.scene_path = a.scene;
         ctx.total_s = std::chrono::duration<double>(Clock::now() - t0).count();
-        ctx.peak_rss_mb = report::peak_rss_mb();
+        ctx.peak_rss_mb = model::peak_rss_mb();
         report::write_metrics_json(a.report, ctx);
         report::write_html_report(a.report, ctx);
     }
     progress.note("wrote " + a.table + (a.report.empty() ? "" : " and " + a.report + "/index.html") + " in " +
                   std::to_string(std::chrono::duration<double>(Clock::now() - t0).count()).substr(0, 5) +
-                  " s, peak memory " + std::to_string(report::peak_rss_mb()).substr(0, 5) + " MB");
+                  " s, peak memory " + std::to_string(model::peak_rss_mb()).substr(0, 5) + " MB");
     return 0;
 }
 
 struct VerifyArgs {
     std::string scene, table, report, drive, expect;
     bool quiet = false;
+    LimitArgs limits;
 };
 
 // "0.0:5,0.5:1": from each time (s), until the next, focus ID must peak highest.
@@ -163,7 +265,7 @@ std::vector<std::pair<double, uint32_t>> parse_expect(const std::string &s)
 int run_verify(const VerifyArgs &a)
 {
     const auto t0 = Clock::now();
-    pipeline::CalibrationInput in = input_from_scene(a.scene);
+    pipeline::CalibrationInput in = input_from_scene(a.scene, a.limits, true);
     haptic_table t{};
     haptic_table_error err{};
     if (haptic_table_open(a.table.c_str(), &t, &err) != 0)
@@ -248,7 +350,7 @@ int run_verify(const VerifyArgs &a)
         ctx.scene_path = a.scene;
         ctx.mode = mode;
         ctx.total_s = std::chrono::duration<double>(Clock::now() - t0).count();
-        ctx.peak_rss_mb = report::peak_rss_mb();
+        ctx.peak_rss_mb = model::peak_rss_mb();
         report::write_metrics_json(a.report, ctx);
         report::write_html_report(a.report, ctx);
     }
@@ -267,6 +369,7 @@ void register_calibrate(CLI::App &app, int &exit_code)
     cmd->add_flag("--dry-run", a->dry_run, "Print the chosen setting, predicted error, time and memory; run nothing");
     cmd->add_option("--report", a->report, "Directory for metrics.json and index.html");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary on stderr");
+    add_limit_options(cmd, a->limits);
     cmd->callback([a, &exit_code] { exit_code = run_calibrate(*a); });
 }
 
@@ -282,6 +385,7 @@ void register_verify(CLI::App &app, int &exit_code)
     cmd->add_option("--drive", a->drive, "Multichannel WAV the device played, simulated instead of the table");
     cmd->add_option("--expect", a->expect, "With --drive: TIME_S:FOCUS_ID,... the focus each trigger asked for");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary on stderr");
+    add_limit_options(cmd, a->limits);
     cmd->callback([a, &exit_code] { exit_code = run_verify(*a); });
 }
 

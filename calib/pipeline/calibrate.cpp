@@ -1,5 +1,7 @@
 #include "pipeline/calibrate.h"
 
+#include "pipeline/plan.h"
+
 #include "engine/effects/exciter.h"
 
 #include <haptic_table.h>
@@ -30,27 +32,11 @@ std::string fmt(double v)
     return b;
 }
 
-Band band_of(const CalibrationInput &in)
-{
-    Band b;
-    b.plate_x_m = in.plate->params().size_x_m;
-    b.plate_y_m = in.plate->params().size_y_m;
-    b.frame_margin_m = in.active.frame_margin_m;
-    b.active_area = in.active.area;
-    b.clearance_m = in.active.clearance_m;
-    return b;
-}
-
 // A0 group velocity (Kirchhoff: twice the phase velocity sqrt(omega kappa)).
 double a0_group_velocity(const engine::PlateOperator &plate, double f_hz)
 {
     return 2.0 * std::sqrt(2 * std::numbers::pi * f_hz * plate.kappa());
 }
-
-// Rate of the stored recordings: 4x the highest significant pulse frequency
-// keeps the band with margin for soxr's transition band; everything after
-// the simulation (search, time reversal) works at this rate.
-double search_rate(const PulseSpec &p) { return std::max(2000.0, std::ceil(4.0 * pulse_max_frequency_hz(p))); }
 
 // Every simulation of a calibration (impulse responses and verification):
 // one core each, and the Mindlin engine when the scene asks for the thick
@@ -61,26 +47,6 @@ engine::SimulationOptions single_thread(const CalibrationInput &in)
     o.engine.threads = 1;  // foci run in parallel; each simulation keeps to one core
     o.thick_plate = in.effects.thick_plate;
     return o;
-}
-
-// Probe points where a lone focus must stay above the field: a 3 x 3 grid
-// over the active area, without the points within half a wavelength of a focus.
-std::vector<Point> probe_points(const CalibrationInput &in, double lambda_half)
-{
-    std::vector<Point> probes;
-    if (in.foci.points.size() >= 4)
-        return probes;
-    const Rect &a = in.active.area;
-    for (int j = 0; j < 3; j++)
-        for (int i = 0; i < 3; i++) {
-            Point p{a.x0_m + (a.x1_m - a.x0_m) * (1 + 2 * i) / 6.0, a.y0_m + (a.y1_m - a.y0_m) * (1 + 2 * j) / 6.0};
-            bool near = false;
-            for (const FocusPoint &f : in.foci.points)
-                near |= dist(p, f.at) < lambda_half;
-            if (!near)
-                probes.push_back(p);
-        }
-    return probes;
 }
 
 // Node nearest to a point.
@@ -209,9 +175,7 @@ void check_feasible(const CalibrationInput &in)
                                             "]: inside the active area, its clearance or the frame margin");
         return;
     }
-    const double spacing =
-        in.exciters.site_spacing_m.value_or(a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 8);
-    const std::vector<Point> sites = candidate_sites(band, spacing);
+    const std::vector<Point> sites = plan(in).sites;
     // Greedy packing at the minimum spacing: if it cannot place them, no search can.
     std::vector<Point> placed;
     for (Point s : sites) {
@@ -231,26 +195,22 @@ void check_feasible(const CalibrationInput &in)
 CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progress)
 {
     check_feasible(in);
+    const CalibrationPlan plan = pipeline::plan(in);
     CalibrationResult res;
     PlacementReport &pl = res.placement;
-    pl.band = band_of(in);
-    const double lambda = a0_wavelength_m(*in.plate, in.pulse.centre_hz);
+    pl.band = plan.band;
+    const double lambda = plan.lambda_centre_m;
     const bool fixed = in.exciters.placement == PlacementMode::fixed;
-    pl.sites = fixed ? in.exciters.positions
-                     : candidate_sites(pl.band, in.exciters.site_spacing_m.value_or(lambda / 8));
+    pl.sites = plan.sites;
 
     // 1. One simulation per focus (and probe point): the pulse emitted there,
     //    recorded at every candidate site at once (reciprocity).
-    std::vector<Point> emitters;
-    for (const FocusPoint &f : in.foci.points)
-        emitters.push_back(f.at);
-    const size_t foci = emitters.size();
-    const std::vector<Point> probes = fixed ? std::vector<Point>{} : probe_points(in, lambda / 2);
-    emitters.insert(emitters.end(), probes.begin(), probes.end());
-    for (size_t p = 0; p < probes.size(); p++)
+    const std::vector<Point> &emitters = plan.emitters;
+    const size_t foci = plan.foci;
+    for (size_t p = 0; p < plan.probes(); p++)
         pl.probe_rows.push_back(foci + p);
 
-    const double rate_d = search_rate(in.pulse);
+    const double rate_d = plan.search_rate_hz;
     res.search_rate_hz = rate_d;
     auto t0 = Clock::now();
     // Impulse responses h (a unit impulse at the emitter, band-limited by the
@@ -397,18 +357,22 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
             q.push_back(d.samples);
         return q;
     };
-    const Verification full =
-        verify_signals(in, res.exciters, quantized(), in.calibration.output_rate_hz, progress, false);
-    for (size_t f = 0; f < foci; f++) {
-        res.full_scale_peak_m.push_back(full.foci[f].peak_m);
-        if (!(full.foci[f].peak_m > 0))
-            throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) +
-                                     ": the exciters produce no displacement there");
-        tro.dither_seed = in.exciters.seed * 1000003u + f;
-        requantize(res.signals[f], std::min(1.0, in.pulse.amplitude_m / full.foci[f].peak_m), tro);
+    for (const VerificationPass &pass : plan.verification) {
+        Verification v = verify_signals(in, res.exciters, quantized(), in.calibration.output_rate_hz, progress,
+                                        pass.snapshots);
+        if (!pass.sets_level) {  // 5. Verification with the signals exactly as the table stores them.
+            res.verification = std::move(v);
+            continue;
+        }
+        for (size_t f = 0; f < foci; f++) {
+            res.full_scale_peak_m.push_back(v.foci[f].peak_m);
+            if (!(v.foci[f].peak_m > 0))
+                throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) +
+                                         ": the exciters produce no displacement there");
+            tro.dither_seed = in.exciters.seed * 1000003u + f;
+            requantize(res.signals[f], std::min(1.0, in.pulse.amplitude_m / v.foci[f].peak_m), tro);
+        }
     }
-    // 5. Verification with the signals exactly as the table stores them.
-    res.verification = verify_signals(in, res.exciters, quantized(), in.calibration.output_rate_hz, progress);
     res.times.verification_s = seconds_since(t0);
     return res;
 }

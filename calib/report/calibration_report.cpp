@@ -19,13 +19,6 @@ namespace calib::report {
 using pipeline::FocusMetrics;
 using pipeline::Point;
 
-double peak_rss_mb()
-{
-    struct rusage ru {};
-    getrusage(RUSAGE_SELF, &ru);
-    return static_cast<double>(ru.ru_maxrss) / 1024.0;  // Linux: kilobytes
-}
-
 namespace {
 
 void make_dir(const std::string &dir)

@@ -25,7 +25,4 @@ void write_metrics_json(const std::string &dir, const ReportContext &ctx);
 // index.html into dir, atomically.
 void write_html_report(const std::string &dir, const ReportContext &ctx);
 
-// Peak resident set size of this process (MB), from getrusage.
-double peak_rss_mb();
-
 }  // namespace calib::report

@@ -1,10 +1,11 @@
-// What accuracy costs (issue #6 part 1): measure the phase-velocity error of
-// the plate scheme from the simulation itself, predict it (and the run time
-// and memory of a calibration) from a model, pick the cheapest setting that
-// meets a target, and sweep a scene's knobs (`calibgen study accuracy`).
-// docs/ACCURACY.md has the method and the measured results.
+// What accuracy costs, measured: the phase-velocity error of the plate
+// scheme from the simulation itself, and a sweep of a scene's knobs through
+// the whole calibration (`calibgen study accuracy`), each setting against
+// the error and cost models' predictions (model/). docs/ACCURACY.md has the
+// method and the measured results.
 #pragma once
 #include "engine/simulation.h"
+#include "model/cost_model.h"
 #include "physics/material.h"
 #include "scene/scene.h"
 
@@ -16,12 +17,10 @@
 
 namespace calib::study {
 
-// The plate model. Only Kirchhoff exists in the engine today; the thick-plate
-// (Mindlin) effect is the hook: a setting asking for it is reported as not
-// available rather than silently run as Kirchhoff.
+// The plate model: Kirchhoff, or the thick-plate (Mindlin) effect
+// (effects.thick_plate; the engine refuses it with loss or free edges).
 enum class PlateModel { kirchhoff, mindlin };
 const char *model_name(PlateModel m);
-bool model_available(PlateModel m);
 
 // One point of the accuracy/time trade.
 struct DispersionSetting {
@@ -38,7 +37,8 @@ struct DispersionSetting {
 // receiver trace (the leapfrog recurrence u+ + u- = 2 cos(omega k) u, least
 // squares). Two strips whose wavenumbers bracket the exact A0 wavenumber at f
 // give, by log-log interpolation, the scheme's wavenumber at f, hence its
-// phase velocity, compared with the exact Rayleigh-Lamb A0 speed.
+// phase velocity, compared with the exact Rayleigh-Lamb A0 speed. Kirchhoff
+// only (the strip runs the Kirchhoff engine).
 struct PhaseMeasurement {
     double f_hz = 0;
     double h_m = 0;
@@ -49,67 +49,6 @@ struct PhaseMeasurement {
 };
 PhaseMeasurement measure_phase_velocity(const physics::Material &m, double thickness_m, double f_hz,
                                         const DispersionSetting &s);
-
-// --- Error model ----------------------------------------------------------
-// The 13-point scheme with leapfrog along a grid axis satisfies
-// sin(omega k / 2) = 2 mu sin^2(beta h / 2), mu = kappa k / h^2: solved for
-// beta at omega = 2 pi f, its phase velocity omega / beta against the exact
-// A0 speed (so the Kirchhoff-vs-Lamb model error is included).
-double predicted_phase_error(const physics::Material &m, double thickness_m, double f_hz, double h_m,
-                             double time_step_s);
-
-// --- Cost model -------------------------------------------------------------
-// Seconds per step of one simulation on one core, timed on the scene's own
-// operator with the receivers and sources each pipeline stage uses (a quick
-// timing, the fastest of three runs of ~1.5e7 node-steps per precision and
-// stage): the reciprocity simulations record at every
-// candidate site, the verification drives the exciters and records the foci.
-struct CostModel {
-    double seconds_per_step_simulate[2] = {0, 0};  // [precision: f32, f64]
-    double seconds_per_step_verify[2] = {0, 0};
-    double seconds_per_node_step[2] = {0, 0};      // the simulate figure per node, for reports
-    int threads = 1;
-};
-CostModel time_cost_model(const std::shared_ptr<const engine::PlateOperator> &plate, std::size_t sites,
-                          std::size_t foci, std::size_t exciters);
-
-// What one calibration of a scene costs and how accurate it is, predicted
-// without running it.
-struct Prediction {
-    DispersionSetting setting;
-    double f_max_hz = 0;
-    double h_m = 0;
-    int nx = 0, ny = 0;
-    double time_step_s = 0;
-    double steps_per_window = 0;
-    double phase_error = 0;   // predicted relative phase-velocity error at f_max
-    double seconds = 0;       // predicted wall time of `calibrate`
-    double memory_mb = 0;     // predicted peak resident memory
-    double emitters = 0, sites = 0;
-};
-// `scene` as given (its [simulation] settings); `setup` must be build_plate(scene).
-// Times the cost model on the way (returned in *cost if given).
-Prediction predict_calibration(const scene::Scene &scene, const scene::PlateSetup &setup,
-                               CostModel *cost = nullptr);
-
-// The cheapest points-per-wavelength (scene's precision and Courant factor)
-// whose predicted |error| at f_max is <= target, and stays so for every finer
-// grid up to 80 points per wavelength. Throws std::invalid_argument naming
-// the floor when even that is not enough (the Kirchhoff model error).
-struct Choice {
-    double points_per_wavelength = 0;  // as the scene asks (nominal)
-    double effective_ppw = 0;          // lambda / h of the grid make_grid builds (h divides the plate)
-    double h_m = 0;
-    double predicted_error = 0;
-};
-Choice choose_points_per_wavelength(const scene::Scene &scene, double target);
-// Applies calibration.accuracy (if set) to scene.simulation; returns the choice.
-std::optional<Choice> apply_accuracy_target(scene::Scene &scene);
-
-// `calibgen calibrate --dry-run`: the setting the scene gets (after its
-// accuracy target, if any), the predicted phase error at f_max, run time and
-// peak memory of the calibration, without running it. Throws like load_scene.
-std::string dry_run_summary(const std::string &scene_path);
 
 // --- The study --------------------------------------------------------------
 struct StudyOptions {
@@ -127,12 +66,20 @@ struct StudyRow {
     double window_s = 0;
     bool ran = false;
     std::string note;
-    Prediction predicted;
+    // The --dry-run models at this setting (model/).
+    struct Predicted {
+        double h_m = 0, time_step_s = 0;
+        int nx = 0, ny = 0;
+        double phase_error = 0, seconds = 0, memory_mb = 0;
+    } predicted;
     PhaseMeasurement phase;
     // Peak |w| of the focus-instant snapshot, located to sub-cell precision
     // (parabola through the largest node and its neighbours on each axis).
     double focus_position_error_m = 0;  // worst over foci: |that peak - focus|
-    double focus_shift_m = 0;           // worst over foci: that peak's distance to the reference's peak
+    // Worst over foci: that peak's distance to the reference's peak. Every
+    // setting plays the reference's exciter placement, so this and the
+    // contrast change measure the grid alone and go to zero as it is refined.
+    double focus_shift_m = 0;
     // Worst over foci of the pipeline's contrast_db (peak / max at the other
     // foci); a one-focus scene has none, so there it is the snapshot contrast
     // 20 log10(peak / max |w| farther than lambda/2 from the focus).
@@ -147,7 +94,8 @@ struct StudyResult {
     std::string scene_file, scene_name;
     double f_max_hz = 0;
     double lambda_f_max_m = 0;
-    CostModel cost;  // of the scene's own setting
+    model::CostModel cost;  // at the first swept setting
+    std::vector<pipeline::Point> exciters;  // the reference's placement, which every setting plays
     std::vector<StudyRow> rows;
 };
 
@@ -158,10 +106,5 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
 // DIR/accuracy.csv, DIR/accuracy.svg, DIR/accuracy.png, DIR/accuracy.md;
 // returns the markdown (also printed by the command).
 std::string write_study_report(const StudyResult &r, const std::string &dir);
-
-// Peak resident memory (MB) since the last reset_peak_rss() (Linux VmHWM;
-// the reset first returns freed heap to the system with malloc_trim).
-void reset_peak_rss();
-double current_peak_rss_mb();
 
 }  // namespace calib::study

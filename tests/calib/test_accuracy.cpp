@@ -6,6 +6,7 @@
 // measurement; and the setting chosen for an accuracy target meets it.
 #include "physics/dispersion.h"
 #include "scene/scene.h"
+#include "model/error_model.h"
 #include "study/accuracy.h"
 
 #include <gtest/gtest.h>
@@ -68,7 +69,7 @@ TEST(Accuracy, ErrorModelAgreesWithMeasurement)
     for (double N : {8.0, 12.0}) {
         const double h = 2 * M_PI * std::sqrt(acrylic.kappa(d) / (2 * M_PI * f_hz)) / N;
         const double k = 0.95 * h * h / (4 * acrylic.kappa(d));
-        const double predicted = study::predicted_phase_error(acrylic, d, f_hz, h, k);
+        const double predicted = model::predicted_phase_error(acrylic, d, f_hz, h, k);
         const double measured = measured_error(acrylic, N);
         EXPECT_NEAR(predicted, measured, 0.05 * std::abs(measured)) << "N = " << N;
     }
@@ -95,7 +96,7 @@ precision = "float"
 )";
     scene::Scene s = scene::parse_scene(text, "tiny.toml");
     for (double target : {0.03, 0.01}) {
-        const study::Choice c = study::choose_points_per_wavelength(s, target);
+        const model::Choice c = model::choose_points_per_wavelength(s, target);
         DispersionSetting set;
         set.points_per_wavelength = c.effective_ppw;  // the grid the scene gets
         set.precision = engine::Precision::f32;
@@ -110,7 +111,7 @@ precision = "float"
     // Below the Kirchhoff model's own gap to exact A0 no grid helps: refused, naming the key.
     const double unreachable = 0.5 * std::abs(model_floor(s.plate.material));
     try {
-        study::choose_points_per_wavelength(s, unreachable);
+        model::choose_points_per_wavelength(s, unreachable);
         ADD_FAILURE() << "an unreachable target was accepted";
     } catch (const std::invalid_argument &e) {
         EXPECT_NE(std::string(e.what()).find("calibration.accuracy"), std::string::npos) << e.what();
@@ -142,7 +143,7 @@ window_s = 0.2
 accuracy = 0.005
 )";
     scene::Scene s = scene::parse_scene(text, "target.toml");
-    const auto c = study::apply_accuracy_target(s);
+    const auto c = model::apply_accuracy_target(s);
     ASSERT_TRUE(c.has_value());
     EXPECT_EQ(s.simulation.points_per_wavelength, c->points_per_wavelength);
     // The grid the scene now builds is the one the choice was made for, and it

@@ -1,0 +1,57 @@
+// What a calibration (or one simulation) costs in time and memory, priced
+// from the plan the pipeline executes (pipeline/plan.h) and a quick timing of
+// the scene's own operator on this machine. docs/ACCURACY.md compares it
+// with measurement.
+#pragma once
+#include "engine/plate_operator.h"
+#include "engine/simulation.h"
+#include "pipeline/calibrate.h"
+#include "pipeline/plan.h"
+
+#include <cstddef>
+#include <memory>
+
+namespace calib::model {
+
+// Seconds per step of one simulation on one core, timed on the scene's own
+// operator with the receivers and sources each pipeline stage uses: the
+// reciprocity simulations record at every candidate site, the verification
+// drives the exciters and records the foci. The fastest of three runs of
+// about `node_steps` node-steps each (a shared machine only ever slows it down).
+struct CostModel {
+    engine::Precision precision = engine::Precision::f32;
+    double seconds_per_step_simulate = 0;
+    double seconds_per_step_verify = 0;
+    double seconds_per_node_step = 0;  // the simulate figure per node, for reports
+    double seconds_per_resample = 0;   // soxr of one window-long trace to the search rate
+    int threads = 1;                   // simulations that run at once (one core each)
+};
+CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,
+                       double node_steps = 1.5e7);
+
+// Seconds per step of one simulation with `receivers` receivers and one
+// source, timed the same way (for `calibgen simulate`).
+double measure_seconds_per_step(const std::shared_ptr<const engine::PlateOperator> &plate,
+                                const engine::SimulationOptions &options, std::size_t receivers,
+                                double node_steps);
+
+// Bytes one simulation holds while it runs: its field (three levels) and its
+// traces (a double per receiver per step).
+double simulation_bytes(std::size_t nodes, engine::Precision p, std::size_t receivers, std::size_t steps);
+
+struct Prediction {
+    double seconds = 0;            // wall time of calibrate(): simulations and verification
+    double simulate_s = 0, verify_s = 0;
+    double memory_mb = 0;          // peak resident memory, the process's current one included
+    double fields_mb = 0;          // the running simulations' fields (three levels each)
+    double traces_mb = 0;          // the running simulations' traces
+    double recordings_mb = 0;      // the stored recordings (pulse and impulse responses)
+};
+// Memory needs no timing: `cost` may be null, then seconds stay 0.
+Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,
+                   const CostModel *cost);
+// `calibgen verify`: the plan's last verification pass alone (no recordings).
+Prediction predict_verification(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,
+                                const CostModel *cost);
+
+}  // namespace calib::model

@@ -1,0 +1,104 @@
+#include "pipeline/plan.h"
+
+#include "pipeline/calibrate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+
+namespace calib::pipeline {
+
+namespace {
+
+double dist(Point a, Point b) { return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m); }
+
+// Probe points where a lone focus must stay above the field: a 3 x 3 grid
+// over the active area, without the points within half a wavelength of a
+// focus. With four foci or more, the other foci already sample the field.
+std::vector<Point> probe_points(const CalibrationInput &in, double lambda_half)
+{
+    std::vector<Point> probes;
+    if (in.foci.points.size() >= 4)
+        return probes;
+    const Rect &a = in.active.area;
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++) {
+            Point p{a.x0_m + (a.x1_m - a.x0_m) * (1 + 2 * i) / 6.0, a.y0_m + (a.y1_m - a.y0_m) * (1 + 2 * j) / 6.0};
+            bool near = false;
+            for (const FocusPoint &f : in.foci.points)
+                near |= dist(p, f.at) < lambda_half;
+            if (!near)
+                probes.push_back(p);
+        }
+    return probes;
+}
+
+std::size_t steps_for(double duration_s, double k)
+{
+    return static_cast<std::size_t>(std::ceil(duration_s / k - 1e-9));  // as engine::Simulation::steps_for
+}
+
+}  // namespace
+
+Band band_of(const CalibrationInput &in)
+{
+    Band b;
+    b.plate_x_m = in.plate->params().size_x_m;
+    b.plate_y_m = in.plate->params().size_y_m;
+    b.frame_margin_m = in.active.frame_margin_m;
+    b.active_area = in.active.area;
+    b.clearance_m = in.active.clearance_m;
+    return b;
+}
+
+double search_rate(const PulseSpec &p) { return std::max(2000.0, std::ceil(4.0 * pulse_max_frequency_hz(p))); }
+
+double lattice_points(const Band &band, double spacing_m)
+{
+    return (std::floor(band.plate_x_m / spacing_m) + 1) * (std::floor(band.plate_y_m / spacing_m) + 1);
+}
+
+CalibrationPlan plan(const CalibrationInput &in)
+{
+    CalibrationPlan p;
+    p.band = band_of(in);
+    p.lambda_centre_m = a0_wavelength_m(*in.plate, in.pulse.centre_hz);
+    const bool fixed = in.exciters.placement == PlacementMode::fixed;
+    if (fixed) {
+        p.sites = in.exciters.positions;
+    } else {
+        p.site_spacing_m = in.exciters.site_spacing_m.value_or(p.lambda_centre_m / 8);
+        const double lattice = lattice_points(p.band, p.site_spacing_m);
+        if (!(lattice <= max_candidate_sites)) {
+            char b[256];
+            std::snprintf(b, sizeof b,
+                          "%s: a candidate lattice of %.3g points (%.3g m apart on a %.3g x %.3g m plate) is more than "
+                          "the %.0e a placement search can visit",
+                          in.exciters.site_spacing_m ? "exciters.site_spacing_m" : "pulse.centre_hz (lambda/8 apart)",
+                          lattice, p.site_spacing_m, p.band.plate_x_m, p.band.plate_y_m, max_candidate_sites);
+            throw std::invalid_argument(b);
+        }
+        p.sites = candidate_sites(p.band, p.site_spacing_m);
+    }
+    for (const FocusPoint &f : in.foci.points)
+        p.emitters.push_back(f.at);
+    p.foci = p.emitters.size();
+    if (!fixed) {
+        const std::vector<Point> probes = probe_points(in, p.lambda_centre_m / 2);
+        p.emitters.insert(p.emitters.end(), probes.begin(), probes.end());
+    }
+    p.search_rate_hz = search_rate(in.pulse);
+
+    p.nodes = in.plate->grid().node_count();
+    p.time_step_s = in.simulation.time_step_s > 0 ? in.simulation.time_step_s
+                                                   : in.simulation.courant * in.plate->max_time_step();
+    p.window_steps = steps_for(in.calibration.window_s, p.time_step_s);
+    // The drive is the kept part of the window (time_reversal.cpp), then the tail.
+    p.drive_steps = steps_for(in.calibration.truncate_fraction * in.calibration.window_s + in.calibration.verify_tail_s,
+                              p.time_step_s);
+    return p;
+}
+
+}  // namespace calib::pipeline

@@ -1,0 +1,66 @@
+// What a calibration will run, decided before anything runs: the candidate
+// sites, the emitters (foci and probe points), the rate of the stored
+// recordings, and every simulation with its length. `calibrate()` executes
+// this plan; the cost model (model/cost_model.h) prices it, so the two cannot
+// drift apart.
+#pragma once
+#include "pipeline/placement.h"
+#include "pipeline/spec.h"
+
+#include <cstddef>
+#include <vector>
+
+namespace calib::pipeline {
+
+struct CalibrationInput;
+
+// One forward (verification) pass over every focus: the exciters play the
+// focus's signals and the foci are recorded.
+struct VerificationPass {
+    // The pass that measures each focus's peak at full scale, from which the
+    // stored level follows (linearity); the other pass verifies the stored signals.
+    bool sets_level = false;
+    // Per focus, a re-run to its focus instant for the |w| field there.
+    bool snapshots = false;
+};
+
+struct CalibrationPlan {
+    Band band;
+    double lambda_centre_m = 0;    // Kirchhoff A0 wavelength at the pulse centre
+    double site_spacing_m = 0;     // candidate lattice (0 for placement = "fixed")
+    std::vector<Point> sites;      // candidate exciter sites; placement = "fixed": the given positions
+    // One reciprocity simulation per emitter: the foci, then the probe points.
+    std::vector<Point> emitters;
+    std::size_t foci = 0;
+    double search_rate_hz = 0;     // rate of the stored (decimated) recordings
+
+    // The simulations, each on one core (the foci run in parallel).
+    std::size_t nodes = 0;         // grid nodes of the plate
+    double time_step_s = 0;        // Kirchhoff step of the scene's settings (the thick plate's is smaller)
+    std::size_t window_steps = 0;  // per reciprocity simulation
+    std::size_t drive_steps = 0;   // per verification run: the kept part of the window and the tail
+    std::vector<VerificationPass> verification{{true, false}, {false, true}};
+
+    std::size_t probes() const { return emitters.size() - foci; }
+};
+
+// Throws std::invalid_argument (one line naming the scene key) when the
+// candidate lattice is too large to enumerate (see max_candidate_sites).
+CalibrationPlan plan(const CalibrationInput &in);
+
+// Lattice points candidate_sites() visits for this band and spacing, counted
+// without visiting them.
+double lattice_points(const Band &band, double spacing_m);
+// More lattice points than this are not enumerated: a placement search over
+// them would not finish, and their recordings would not fit in memory.
+constexpr double max_candidate_sites = 1e7;
+
+// The exciter band of the scene's plate and active area.
+Band band_of(const CalibrationInput &in);
+
+// Rate of the stored recordings for a pulse: 4x its highest significant
+// frequency keeps the band with margin for soxr's transition band;
+// everything after the simulation (search, time reversal) works at this rate.
+double search_rate(const PulseSpec &p);
+
+}  // namespace calib::pipeline
