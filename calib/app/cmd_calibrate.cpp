@@ -54,7 +54,15 @@ struct Prepared {
     pipeline::CalibrationInput input;
 };
 
-Prepared prepare(const std::string &path)
+struct LimitArgs;
+Prepared prepare(const std::string &path, const LimitArgs &l, bool verification_only);
+
+struct LimitArgs {
+    std::optional<double> max_memory_mb, max_seconds;
+    model::Limits limits() const { return model::machine_limits(max_memory_mb, max_seconds); }
+};
+
+Prepared prepare(const std::string &path, const LimitArgs &l, bool verification_only)
 {
     const std::string bytes = read_bytes(path);
     Prepared p{scene::parse_scene(bytes, path), std::nullopt, {}};
@@ -62,6 +70,8 @@ Prepared prepare(const std::string &path)
         throw std::runtime_error(path + ": not a calibration scene: it needs [active_area], [exciters], [foci], "
                                         "[pulse] and [calibration] sections");
     p.choice = model::apply_accuracy_target(p.scene);  // calibration.accuracy picks the grid (docs/ACCURACY.md)
+    if (!verification_only)  // verify records the foci only: the full plan below prices it
+        model::refuse_before_build(p.scene, l.limits(), true);
     p.input = scene::calibration_input(p.scene, scene::build_plate(p.scene), bytes);
     try {
         pipeline::check_feasible(p.input);
@@ -70,11 +80,6 @@ Prepared prepare(const std::string &path)
     }
     return p;
 }
-
-struct LimitArgs {
-    std::optional<double> max_memory_mb, max_seconds;
-    model::Limits limits() const { return model::machine_limits(max_memory_mb, max_seconds); }
-};
 
 void add_limit_options(CLI::App *cmd, LimitArgs &l)
 {
@@ -88,7 +93,7 @@ void add_limit_options(CLI::App *cmd, LimitArgs &l)
 // Plans, prices and refuses what does not fit, before any simulation.
 pipeline::CalibrationInput input_from_scene(const std::string &path, const LimitArgs &l, bool verification_only)
 {
-    Prepared p = prepare(path);
+    Prepared p = prepare(path, l, verification_only);
     if (p.choice)
         std::fprintf(stderr, "accuracy target %g %%: %.2f points per wavelength (predicted error %+.3f %%)\n",
                      100 * *p.scene.calibration->accuracy, p.choice->points_per_wavelength,
@@ -106,7 +111,7 @@ pipeline::CalibrationInput input_from_scene(const std::string &path, const Limit
 // peak memory of the calibration, without running it; then the verdict.
 int dry_run(const std::string &path, const LimitArgs &l)
 {
-    Prepared p = prepare(path);
+    Prepared p = prepare(path, l, false);
     const pipeline::CalibrationInput &in = p.input;
     const scene::Scene &s = p.scene;
     pipeline::CalibrationPlan plan;

@@ -5,6 +5,7 @@
 #include "io/atomic_file.h"
 
 #include "engine/simulation.h"
+#include "model/resources.h"
 #include "scene/scene.h"
 #include "scene/toml_fields.h"
 
@@ -14,6 +15,7 @@
 #include <unistd.h>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -51,6 +53,7 @@ struct SimulateArgs {
     std::string output;
     std::string precision;
     int threads = -1;
+    std::optional<double> max_memory_mb, max_seconds;
 };
 
 int run_simulate(const SimulateArgs &a)
@@ -67,6 +70,8 @@ int run_simulate(const SimulateArgs &a)
     if (!(a.duration_s > 0))
         throw std::invalid_argument("--duration: must be > 0 seconds");
 
+    model::refuse_before_build(sc, model::machine_limits(a.max_memory_mb, a.max_seconds), false, a.duration_s,
+                               recs.size());
     scene::PlateSetup setup = scene::build_plate(sc);
     engine::Simulation sim(setup.plate, setup.options);
     auto at = [&](const char *what, Point p, auto add) {
@@ -83,11 +88,6 @@ int run_simulate(const SimulateArgs &a)
 
     const engine::Grid &g = setup.plate->grid();
     const std::size_t steps = sim.steps_for(a.duration_s);
-    std::fprintf(stderr,
-                 "simulate: %d x %d intervals, h = %.4g m, plate %.4g x %.4g m, k = %.4g s (bound %.4g s), %zu steps, "
-                 "%s\n",
-                 g.nx, g.ny, g.h, g.length_x_m(), g.length_y_m(), sim.time_step_s(), setup.plate->max_time_step(),
-                 steps, engine::precision_name(sim.precision()));
     // Fail before a long run if the output cannot be written at all.
     const std::filesystem::path dir = std::filesystem::absolute(a.output).parent_path();
     if (::access(dir.c_str(), W_OK) != 0)
@@ -95,8 +95,6 @@ int run_simulate(const SimulateArgs &a)
     const auto t0 = std::chrono::steady_clock::now();
     sim.run(steps);
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    std::fprintf(stderr, "simulate: %.3f s wall, %.3g node updates/s\n", wall,
-                 double(steps) * double(g.node_count()) / std::max(wall, 1e-9));
 
     // Written next to the target and renamed: never a half-written file.
     io::write_stream_atomic(a.output, [&](std::ostream &out) {
@@ -116,6 +114,14 @@ int run_simulate(const SimulateArgs &a)
             out << "\n";
         }
     });
+    // Reported after the run, so a failure is the one line on stderr.
+    std::fprintf(stderr,
+                 "simulate: %d x %d intervals, h = %.4g m, plate %.4g x %.4g m, k = %.4g s (bound %.4g s), %zu steps, "
+                 "%s\n",
+                 g.nx, g.ny, g.h, g.length_x_m(), g.length_y_m(), sim.time_step_s(), setup.plate->max_time_step(),
+                 steps, engine::precision_name(sim.precision()));
+    std::fprintf(stderr, "simulate: %.3f s wall, %.3g node updates/s\n", wall,
+                 double(steps) * double(g.node_count()) / std::max(wall, 1e-9));
     return 0;
 }
 
@@ -134,6 +140,11 @@ void register_simulate(CLI::App &app, int &exit_code)
     cmd->add_option("--precision", a->precision, "Override the scene: float or double")
         ->check(CLI::IsMember({"float", "double"}));
     cmd->add_option("--threads", a->threads, "Override the scene: OpenMP threads (0: all)");
+    cmd->add_option("--max-memory", a->max_memory_mb,
+                    "Refuse (before simulating) a run predicted to need more than this many MB (default: physical "
+                    "memory)");
+    cmd->add_option("--max-seconds", a->max_seconds,
+                    "Refuse (before simulating) a run predicted to take longer than this (default: no limit)");
     cmd->callback([a, &exit_code] {
         try {
             exit_code = run_simulate(*a);

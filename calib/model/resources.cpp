@@ -1,5 +1,10 @@
 #include "model/resources.h"
 
+#include "model/error_model.h"
+#include "pipeline/plan.h"
+
+#include <omp.h>
+
 #include <malloc.h>
 #include <unistd.h>
 
@@ -104,6 +109,91 @@ Priced refuse_unaffordable(const pipeline::CalibrationInput &in, const Limits &l
     refuse_if_over(what, r.prediction.memory_mb, r.prediction.seconds, limits,
                    calibration_cause(in, r.plan, r.prediction, verification_only));
     return r;
+}
+
+namespace {
+
+// Seconds per node-step of the float engine on one core, on a small plate
+// (the fastest of three runs): what every grid costs at least per node.
+double small_plate_seconds_per_node_step()
+{
+    engine::PlateParams params;
+    params.size_x_m = params.size_y_m = 0.3;
+    params.thickness_m = 0.002;
+    params.material = *physics::find_material("acrylic");
+    engine::Grid g;
+    g.nx = g.ny = 100;
+    g.h = 0.003;
+    auto op = std::make_shared<const engine::PlateOperator>(params, g);
+    engine::SimulationOptions so;
+    so.time_step_s = 0.5 * g.h * g.h / (4 * op->kappa());  // well inside the interior bound
+    so.engine.skip_stability_check = true;
+    return measure_seconds_per_step(op, so, 1, 1e6) / double(g.node_count());
+}
+
+}  // namespace
+
+void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calibration, double duration_s,
+                         std::size_t receivers)
+{
+    const scene::PlateSpec &pl = s.plate;
+    const double kappa = pl.material.kappa(pl.thickness_m);
+    const engine::Grid g = scene::plate_grid(s);  // refuses absurd grids, naming the cell count and the key
+    const double nodes = double(g.nx + 1) * double(g.ny + 1);
+    const double courant = s.simulation.courant > 0 && s.simulation.courant < 1 ? s.simulation.courant : 1.0;
+    const double k = s.simulation.time_step_s ? *s.simulation.time_step_s : courant * g.h * g.h / (4 * kappa);
+    const double mb = 1024.0 * 1024.0;
+    const engine::Precision prec = s.effects.thick_plate ? engine::Precision::f64 : s.simulation.precision;
+    double memory_mb = current_rss_mb(), node_steps = 0;
+    std::string cause;
+    if (!calibration) {
+        const double steps = std::ceil(duration_s / k);
+        memory_mb += (simulation_bytes(std::size_t(nodes), prec, 0, 0) + double(receivers) * steps * 8) / mb;
+        node_steps = nodes * steps;
+        cause = fmt("%.3g", steps) + " steps of " + fmt("%.3g s", k) + " on a grid of " + std::to_string(g.nx) +
+                " x " + std::to_string(g.ny) + " cells: shorten --duration, or lower simulation.points_per_wavelength or "
+                "simulation.f_max_hz";
+    } else {
+        if (!s.calibration_sections())
+            return;
+        const double window_steps = std::ceil(s.calibration->window_s / k);
+        const double lambda = kirchhoff_wavelength_m(kappa, s.pulse->centre_hz);
+        pipeline::Band band;
+        band.plate_x_m = pl.size_x_m;
+        band.plate_y_m = pl.size_y_m;
+        band.frame_margin_m = s.active_area->frame_margin_m;
+        band.active_area = s.active_area->area;
+        band.clearance_m = s.active_area->clearance_m;
+        const bool fixed = s.exciters->placement == pipeline::PlacementMode::fixed;
+        const double spacing = s.exciters->site_spacing_m.value_or(lambda / 8);
+        if (!fixed && !(pipeline::lattice_points(band, spacing) <= pipeline::max_candidate_sites))
+            return;  // plan() refuses it, naming the key, before enumerating anything
+        const double sites = fixed ? double(s.exciters->positions.size())
+                                   : double(pipeline::candidate_sites(band, spacing).size());
+        const double foci = double(s.foci->points.size());
+        const double threads = std::max(1, omp_get_max_threads());
+        const double rate = pipeline::search_rate(*s.pulse);
+        const double traces = std::min(threads, foci) * sites * window_steps * 8 / mb;
+        const double recordings = 2 * foci * sites * s.calibration->window_s * rate * 4 / mb;
+        const double fields = std::min(threads, foci) * simulation_bytes(std::size_t(nodes), prec, 0, 0) / mb;
+        memory_mb += traces + recordings + fields;
+        node_steps = nodes * window_steps * std::ceil(foci / threads);
+        if (traces + recordings >= fields) {
+            cause = fmt("%.0f", sites) + " candidate sites x " + fmt("%.0f", window_steps) + " steps of recordings";
+            cause += s.exciters->site_spacing_m
+                         ? ": raise exciters.site_spacing_m (" + fmt("%g m", spacing) + ") or shorten calibration.window_s"
+                         : " (sites lambda/8 = " + fmt("%.3g mm", spacing * 1e3) + " apart): lower pulse.centre_hz (" +
+                               fmt("%g Hz", s.pulse->centre_hz) + ") or set exciters.site_spacing_m";
+        } else {
+            cause = fmt("%.0f", window_steps) + " steps per window on a grid of " + std::to_string(g.nx) + " x " +
+                    std::to_string(g.ny) + " cells: lower simulation.points_per_wavelength or simulation.f_max_hz";
+        }
+    }
+    const bool over_memory = !(memory_mb <= limits.memory_mb);
+    if (!over_memory && !limits.seconds)
+        return;
+    const double seconds = node_steps * small_plate_seconds_per_node_step();
+    refuse_if_over(s.file, memory_mb, seconds, limits, cause);
 }
 
 double current_rss_mb() { return status_mb("VmRSS:"); }

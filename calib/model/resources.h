@@ -4,6 +4,7 @@
 // scene key to change, instead of being killed after minutes.
 #pragma once
 #include "model/cost_model.h"
+#include "scene/scene.h"
 
 #include <optional>
 #include <string>
@@ -40,6 +41,16 @@ struct Priced {
 };
 Priced refuse_unaffordable(const pipeline::CalibrationInput &in, const Limits &limits, const std::string &what,
                            bool verification_only = false);
+
+// The same refusal from the scene alone, before its operator is built (on a
+// large grid the build and its stability bound take many seconds): the grid,
+// the interior stability bound (never below the operator's, so the steps are
+// a lower bound), the candidate sites and the foci give a lower bound of the
+// memory, and a quick timing on a small plate a lower bound of the time.
+// Grids past the engine's size limit are refused naming their cell count.
+// `calibration` false: one simulation of `steps_s` seconds with `receivers`.
+void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calibration, double duration_s = 0,
+                         std::size_t receivers = 0);
 
 // Resident memory of this process (MB): now, and the peak since the last
 // reset_peak_rss() (Linux VmRSS and VmHWM; the reset first returns freed

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <numbers>
 #include <sstream>
@@ -267,6 +268,32 @@ Scene load_scene(const std::string &path)
     return parse_scene(ss.str(), path);
 }
 
+engine::Grid plate_grid(const Scene &scene)
+{
+    const PlateSpec &p = scene.plate;
+    const SimulationSpec &s = scene.simulation;
+    double h_max;
+    if (s.grid_spacing_m) {
+        h_max = *s.grid_spacing_m;
+    } else {
+        // Kirchhoff A0 wavelength at f_max: 2 pi sqrt(kappa / omega).
+        const double kappa = p.material.kappa(p.thickness_m);
+        const double wavelength = 2 * std::numbers::pi * std::sqrt(kappa / (2 * std::numbers::pi * s.f_max_hz));
+        h_max = wavelength / s.points_per_wavelength;
+    }
+    // Counted in floating point before any grid exists: an absurd size or
+    // spacing is refused here, at once, not after an allocation.
+    const double cells_x = std::ceil(p.size_x_m / h_max), cells_y = std::ceil(p.size_y_m / h_max);
+    if (!(cells_x * cells_y <= 2e8)) {
+        char b[200];
+        std::snprintf(b, sizeof b, "a grid of %.3g x %.3g = %.3g cells of %.3g m (the engine takes at most 2e8)",
+                      cells_x, cells_y, cells_x * cells_y, h_max);
+        throw SceneError(scene.file + ": plate.size_m with simulation." +
+                         (s.grid_spacing_m ? "grid_spacing_m" : "points_per_wavelength and f_max_hz") + ": " + b);
+    }
+    return engine::make_grid(p.size_x_m, p.size_y_m, h_max);
+}
+
 PlateSetup build_plate(const Scene &scene)
 {
     const PlateSpec &p = scene.plate;
@@ -285,20 +312,7 @@ PlateSetup build_plate(const Scene &scene)
             throw SceneError(scene.file + ": plate.loss: " + e.what());
         }
     }
-    double h_max;
-    if (s.grid_spacing_m) {
-        h_max = *s.grid_spacing_m;
-    } else {
-        // Kirchhoff A0 wavelength at f_max: 2 pi sqrt(kappa / omega).
-        const double wavelength = 2 * std::numbers::pi * std::sqrt(kappa / (2 * std::numbers::pi * s.f_max_hz));
-        h_max = wavelength / s.points_per_wavelength;
-    }
-    const engine::Grid grid = engine::make_grid(p.size_x_m, p.size_y_m, h_max);
-    const double nodes = double(grid.nx + 1) * double(grid.ny + 1);
-    if (nodes > 2e8)
-        throw SceneError(scene.file + ": simulation." +
-                         (s.grid_spacing_m ? "grid_spacing_m" : "points_per_wavelength") + ": grid of " +
-                         std::to_string(grid.nx + 1) + " x " + std::to_string(grid.ny + 1) + " nodes is too large");
+    const engine::Grid grid = plate_grid(scene);
     PlateSetup setup;
     setup.plate = std::make_shared<const engine::PlateOperator>(params, grid);
     setup.options.precision = s.precision;

@@ -72,5 +72,8 @@ struct PlateSetup {
     engine::SimulationOptions options;
 };
 PlateSetup build_plate(const Scene &scene);
+// The grid build_plate uses, without building anything. Throws SceneError
+// naming the cell count and the keys for a grid past the engine's limit.
+engine::Grid plate_grid(const Scene &scene);
 
 }  // namespace calib::scene
