@@ -1,5 +1,5 @@
 // `calibgen study accuracy SCENE.toml --report DIR`: what accuracy costs in
-// time and memory (issue #6; calib/study/accuracy.h, docs/ACCURACY.md).
+// time and memory (calib/study/accuracy.h, docs/ACCURACY.md).
 #include "app/commands.h"
 #include "study/accuracy.h"
 
@@ -69,8 +69,8 @@ void register_study(CLI::App &app, int &exit_code)
     cmd->add_option("scene", a->scene, "Calibration scene (TOML)")->required();
     cmd->add_option("--report", a->report, "Directory for accuracy.csv, .svg, .png, .md")->required();
     cmd->add_option("--ppw", a->ppw, "Points per wavelength to sweep (default 6,8,10,12,16,20,24)");
-    cmd->add_option("--restarts", a->restarts, "Placement search restarts per setting (reduced budget)");
-    cmd->add_option("--iterations", a->iterations, "Placement search iterations per restart (reduced budget)");
+    cmd->add_option("--restarts", a->restarts, "Restarts of the reference's placement search (reduced budget)");
+    cmd->add_option("--iterations", a->iterations, "Iterations per restart of the reference's placement search");
     cmd->add_flag("--ppw-only", a->ppw_only, "Sweep points per wavelength only (no precision, Courant, window, model)");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
     cmd->callback([a, &exit_code] { exit_code = run_study_accuracy(*a); });

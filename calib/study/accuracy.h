@@ -56,7 +56,7 @@ struct StudyOptions {
     std::vector<double> courants = {0.5, 0.8};
     std::vector<double> window_factors = {0.5, 1.5};
     bool include_precision = true, include_model = true;
-    unsigned search_restarts = 2, search_iterations = 300;  // reduced placement search, same seed
+    unsigned search_restarts = 2, search_iterations = 300;  // the reference's placement search (reduced), scene seed
     bool quiet = false;
 };
 

@@ -1,4 +1,4 @@
-// What accuracy costs (issue #6): the phase velocity the plate scheme gives at
+// What accuracy costs: the phase velocity the plate scheme gives at
 // f, measured from the simulation itself (a ringing mode of a simply
 // supported strip), converges at second order in the grid spacing to the
 // Kirchhoff plate speed (whose gap to the exact Rayleigh-Lamb A0 speed is the
