@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 namespace {
 
 #ifdef HAPTIC_ASAN
-constexpr int mutations_per_scene = 3;
+constexpr int mutations_per_scene = 2;
 constexpr double seconds_per_run = 30;  // sanitized code runs several times slower
 #else
 constexpr int mutations_per_scene = 8;
