@@ -122,8 +122,15 @@ void hd_program_free(struct hd_program *p)
 
 double hd_program_lead_time_s(const struct hd_program *p)
 {
-    /* Table format 1.0 carries no lead time and it cannot be derived from
-     * the samples alone (the peak is at the focus, not at an exciter). */
-    (void)p;
-    return NAN;
+    /* A touch may select any focus, so the latency to state is the slowest
+     * focus's: the largest lead time. A 1.0 table has none (NaN for every
+     * focus), and it cannot be derived from the samples alone: the peak forms
+     * at the focus, not at an exciter. */
+    double lead = NAN;
+    for (uint32_t i = 0; i < p->table.focus_count; i++) {
+        double s = haptic_table_lead_time_s(&p->table, i);
+        if (isfinite(s) && (isnan(lead) || s > lead))
+            lead = s;
+    }
+    return lead;
 }

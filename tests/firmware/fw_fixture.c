@@ -41,18 +41,27 @@ void fw_table_make(struct fw_table *t, uint16_t channels, uint32_t foci, uint32_
                 t->samples_buf[((size_t)f * samples + n) * channels + c] = (int16_t)v;
             }
     }
+    fw_table_encode(t, NULL);
+}
+
+void fw_table_encode(struct fw_table *t, const double *lead_time_s)
+{
     haptic_table_spec spec = {
         .sample_rate_hz = 48000,
-        .channel_count = channels,
-        .focus_count = foci,
-        .samples_per_signal = samples,
+        .channel_count = t->channels,
+        .focus_count = t->foci,
+        .samples_per_signal = t->samples,
         .channel_xy_m = t->channel_xy,
         .focus_id = t->ids,
         .focus_xy_m = t->focus_xy,
         .focus_scale_m = t->scale,
         .samples = t->samples_buf,
         .scene_name = "fw-test",
+        .drive_kind = lead_time_s ? HAPTIC_DRIVE_FORCE : HAPTIC_DRIVE_UNKNOWN,
+        .force_full_scale_n = lead_time_s ? 0.5 : 0.0,
+        .focus_lead_time_s = lead_time_s,
     };
+    free(t->buf);
     t->size = (size_t)haptic_table_encoded_size(&spec);
     assert(t->size > 0);
     t->buf = malloc(t->size);

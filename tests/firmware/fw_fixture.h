@@ -27,6 +27,9 @@ struct fw_table {
 
 void fw_table_make(struct fw_table *t, uint16_t channels, uint32_t foci, uint32_t samples, enum fw_kind kind,
                    int amp, uint32_t seed);
+/* Encode again, with a playback section (format 1.1) giving each focus's lead
+ * time when lead_time_s is not NULL, without one (as a 1.0 writer) when NULL. */
+void fw_table_encode(struct fw_table *t, const double *lead_time_s);
 void fw_table_free(struct fw_table *t);
 /* Write the encoded bytes to path (plain write, for tests). */
 void fw_table_write(const struct fw_table *t, const char *path);

@@ -364,6 +364,29 @@ static void program_checks_board(void **state)
     fw_table_free(&t);
 }
 
+/* The latency hapticd states is the slowest focus's lead time, read from the
+ * table's playback section; a table without one (format 1.0) says nothing. */
+static void program_lead_time_is_the_largest_focus_lead(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, 8, 3, 480, FW_RANDOM, 1000, 11);
+    struct hd_board b;
+    fw_board(&b, 8, HD_FMT_S32_LE, 64);
+    struct hd_program *p;
+    char err[HD_ERR_MAX];
+    assert_int_equal(hd_program_from_table(&t.table, &b, &p, err), 0);
+    assert_true(isnan(hd_program_lead_time_s(p)));
+    hd_program_free(p);
+
+    const double lead_s[3] = {0.0572, 0.0601, 0.0125};
+    fw_table_encode(&t, lead_s);
+    assert_int_equal(hd_program_from_table(&t.table, &b, &p, err), 0);
+    assert_true(hd_program_lead_time_s(p) == 0.0601);
+    hd_program_free(p);
+    fw_table_free(&t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -374,6 +397,7 @@ int main(void)
         cmocka_unit_test(conversion_rounding_and_saturation),
         cmocka_unit_test(overlapping_voices_saturate),
         cmocka_unit_test(program_checks_board),
+        cmocka_unit_test(program_lead_time_is_the_largest_focus_lead),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
