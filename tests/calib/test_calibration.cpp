@@ -235,7 +235,12 @@ TEST(Calibration, EndToEndEveryFocusForms)
         haptic_focus_info fi;
         haptic_table_focus(&t, f, &fi);
         EXPECT_DOUBLE_EQ(fi.scale_m, r.verification.foci[f].peak_m);
+        // The lead time a device states is the verified focal peak's instant,
+        // which time reversal puts at the end of the kept window.
+        EXPECT_DOUBLE_EQ(fi.lead_time_s, r.verification.foci[f].peak_time_s);
+        EXPECT_NEAR(fi.lead_time_s, r.signals[f].focus_delay_s, 2.0 / 1200);
     }
+    EXPECT_DOUBLE_EQ(haptic_table_force_full_scale_n(&t), in.exciters.force_full_scale_n);
     pipeline::Verification again = pipeline::verify_signals(in, r.exciters, signals, t.sample_rate_hz);
     for (size_t f = 0; f < 4; f++)
         EXPECT_DOUBLE_EQ(again.foci[f].peak_m, r.verification.foci[f].peak_m);
