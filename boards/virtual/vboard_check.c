@@ -124,8 +124,9 @@ static int frame_silent(const int32_t *f, unsigned channels)
 }
 
 /* At an underrun the driver's position runs past the last frame written by
- * up to one timer tick, and the ring buffer's old contents play: the frames
- * written one buffer earlier. Recognized exactly, so they can be named. */
+ * up to one timer tick; without ALSA's silence fill the ring buffer's old
+ * contents would play there: the frames written one buffer earlier.
+ * Recognized exactly, so that they can be named (and fail the check). */
 static int frame_stale(const struct vb_capture *cap, size_t i, size_t buffer_frames)
 {
     const unsigned C = cap->channels;
@@ -246,7 +247,9 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
     if (stale)
         snprintf(gap_text + n_text, sizeof gap_text - (size_t)n_text,
                  " (%zu stale frames at an underrun: the frames of one buffer earlier)", stale);
-    int ok = mismatched == 0 && stray == 0 && energy_rel < 1e-3;
+    /* hapticd has ALSA zero what has been played, so an underrun plays
+     * silence: a stale frame is a defect. */
+    int ok = mismatched == 0 && stray == 0 && stale == 0 && energy_rel < 1e-3;
     vb_result(ok, e->name,
               "%u frames x %u ch at capture frame %zu%s: %llu samples off (max error %.0f LSB), "
               "gain %.6f (reference %.6f), mix energy / E_ref - 1 = %.1e, %llu non-silent frames after%s; "

@@ -67,6 +67,18 @@ static int set_params(struct hd_audio *a, const struct hd_board *b, const char *
         return *what = "start_threshold", rc;
     if ((rc = snd_pcm_sw_params_set_avail_min(a->pcm, sw, a->period_frames)) < 0)
         return *what = "avail_min", rc;
+    /* At an underrun the hardware runs past the last frame written (a DMA
+     * burst, a timer tick) into the ring buffer's old contents: a buffer-old
+     * drive signal on the exciters. ALSA zeroes what has been played when the
+     * silence size is the boundary and the threshold 0; rewinding only ever
+     * reclaims frames not yet played, so it never meets the zeroed area. */
+    snd_pcm_uframes_t boundary;
+    if ((rc = snd_pcm_sw_params_get_boundary(sw, &boundary)) < 0)
+        return *what = "boundary", rc;
+    if ((rc = snd_pcm_sw_params_set_silence_threshold(a->pcm, sw, 0)) < 0)
+        return *what = "silence_threshold", rc;
+    if ((rc = snd_pcm_sw_params_set_silence_size(a->pcm, sw, boundary)) < 0)
+        return *what = "silence_size", rc;
     if ((rc = snd_pcm_sw_params(a->pcm, sw)) < 0)
         return *what = "sw_params", rc;
     return 0;
