@@ -203,9 +203,12 @@ TEST(PlateStabilityRigidModes, FreePlateAfterAnImpulseDriftsAsMomentumOverMass)
     // angular momenta x_s, y_s (N m s): sum_n M_n u_n = t and
     // sum_n M_n x_n u_n = x_s t, exactly, in the discrete scheme (M 1, M x
     // are left null vectors of K). Over a calibration-length window (0.3 s,
-    // 16 000 steps) float follows it to 2e-3 (it stores a growing absolute
-    // displacement, so its resolution of the drift falls as the plate
-    // travels); double to 1e-9.
+    // 16 000 steps) double follows it to 1e-9. Float stores a growing
+    // absolute displacement and leapfrog forms each step's velocity from
+    // rounded positions, so the rigid-body velocity random-walks: relative
+    // scale eps_f n^1.5 / sqrt(nodes) = 6e-8 * 2.0e6 / 7 = 1.7e-2; measured
+    // 2.3e-3 at -O1 (asan preset), less at -O2. The bound 1e-2 sits between
+    // that and the unmended scheme's 4.3 % (its rotation modes grew).
     auto op = free_glass_plate();
     const double xs = 0.03, ys = 0.04;
     for (bool is_float : {false, true}) {
@@ -229,7 +232,7 @@ TEST(PlateStabilityRigidModes, FreePlateAfterAnImpulseDriftsAsMomentumOverMass)
                 ly += m * y * u[node];
                 mass += m;
             }
-            const double tol = is_float ? 2e-3 : 1e-9;
+            const double tol = is_float ? 1e-2 : 1e-9;
             EXPECT_NEAR(p / t, 1.0, tol) << (is_float ? "float" : "double");
             EXPECT_NEAR(lx / (xs * t), 1.0, tol) << (is_float ? "float" : "double");
             EXPECT_NEAR(ly / (ys * t), 1.0, tol) << (is_float ? "float" : "double");
