@@ -10,6 +10,7 @@
 #include "pipeline/plan.h"
 #include "report/calibration_report.h"
 #include "scene/calibration_input.h"
+#include "io/format.h"
 
 #include <haptic_table.h>
 #include <sndfile.h>
@@ -39,12 +40,7 @@ std::string read_bytes(const std::string &path)
     return ss.str();
 }
 
-std::string fmt(const char *f, double v)
-{
-    char b[64];
-    std::snprintf(b, sizeof b, f, v);
-    return b;
-}
+using io::fmt;
 
 // What calibrate and verify (and the dry run) need before anything runs: the
 // scene after its accuracy target, as the pipeline's input, checked.

@@ -3,6 +3,7 @@
 #include "engine/plate_operator.h"
 #include "physics/dispersion.h"
 #include "pipeline/pulse.h"
+#include "io/format.h"
 
 #include <cmath>
 #include <cstdio>
@@ -16,12 +17,7 @@ namespace {
 
 constexpr double pi = std::numbers::pi;
 
-std::string fmt(const char *f, double v)
-{
-    char b[64];
-    std::snprintf(b, sizeof b, f, v);
-    return b;
-}
+using io::fmt;
 
 }  // namespace
 

@@ -2,6 +2,7 @@
 
 #include "model/error_model.h"
 #include "pipeline/plan.h"
+#include "io/format.h"
 
 #include <omp.h>
 
@@ -18,12 +19,7 @@ namespace calib::model {
 
 namespace {
 
-std::string fmt(const char *f, double v)
-{
-    char b[64];
-    std::snprintf(b, sizeof b, f, v);
-    return b;
-}
+using io::fmt;
 
 // A /proc/self/status field in kB, as MB.
 double status_mb(const std::string &key)

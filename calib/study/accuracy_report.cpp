@@ -4,6 +4,7 @@
 #include "model/error_model.h"
 #include "physics/dispersion.h"
 #include "report/plot.h"
+#include "io/format.h"
 
 #include <algorithm>
 #include <cmath>
@@ -16,12 +17,7 @@ namespace calib::study {
 
 namespace {
 
-std::string fmt(const char *f, double v)
-{
-    char b[64];
-    std::snprintf(b, sizeof b, f, v);
-    return b;
-}
+using io::fmt;
 
 }  // namespace
 
