@@ -5,7 +5,7 @@
 demo:            ## calibrate the default scene and play it on the simulated device
 	scripts/demo
 
-test:            ## build and run every test (default + asan presets, fuzz, cross, virtual board)
+test:            ## build and run every test (default, asan, tsan, fuzz, cross, virtual board, packages)
 	scripts/test
 
 bench:           ## micro-benchmarks and studies (long; figures go to docs/BENCHMARKS.md)
