@@ -52,14 +52,22 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     // Rows padded to whole 64-byte lines so every row starts aligned.
     const std::ptrdiff_t per_line = std::ptrdiff_t(64 / sizeof(T));
     stride_ = (std::ptrdiff_t(nx_ + 1) + per_line - 1) / per_line * per_line;
+    if (nx_ > 3 && ny_ > 3) {
+        const std::size_t cells = std::size_t(nx_ - 3) * std::size_t(ny_ - 3);
+        const int threads = options_.threads > 0 ? options_.threads : omp_get_max_threads();
+        bulk_threads_ = cells >= options_.parallel_min_cells ? std::max(1, threads) : 1;
+    }
     const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 1);
-    storage_ = static_cast<T *>(std::aligned_alloc(64, 3 * level * sizeof(T)));
+    const std::size_t scratch = std::size_t(stride_) * std::size_t(bulk_threads_ * bulk_scratch_rows);
+    const std::size_t total = 3 * level + scratch;
+    storage_ = static_cast<T *>(std::aligned_alloc(64, total * sizeof(T)));
     if (!storage_)
         throw std::bad_alloc();
-    std::memset(static_cast<void *>(storage_), 0, 3 * level * sizeof(T));
-    prev_ = storage_;
-    cur_ = storage_ + level;
-    next_ = storage_ + 2 * level;
+    std::memset(static_cast<void *>(storage_), 0, total * sizeof(T));
+    u_ = storage_;
+    inc_ = storage_ + level;
+    inc_before_ = storage_ + 2 * level;
+    scratch_ = storage_ + 3 * level;
 
     const Loss &loss = op_->params().loss;
     lossy_ = loss.active();
@@ -97,8 +105,9 @@ double PlateEngine<T>::force_gain(std::size_t node) const
 }
 
 // Rows for the unknowns of the edge band, in the same form as the bulk kernel:
-//   u+ = c + g (c - p) - R u + S u-,
-//   R = d (k^2 M^-1 K + 2 sigma1 k M^-1 Gm),  S = d 2 sigma1 k M^-1 Gm,
+//   d+ = g d - R u - S d,  u+ = u + d+,
+//   R = dd k^2 M^-1 K,  S = dd 2 sigma1 k M^-1 Gm,  dd = 1 / (1 + sigma0 k)
+// (u+ = u + g (u - u-) - (R + S) u + S u- written with d = u - u-),
 // built from the factored K and Gm (sum of weight (a b^T + b a^T) / 2): row n
 // of R u is sum_s coef_ns (s . u) over the strains s. Stored as assembled
 // matrix rows instead, the float-rounded coefficients no longer sum to zero
@@ -163,11 +172,8 @@ void PlateEngine<T>::build_edge_rows()
         std::map<std::size_t, double> r, s;
         for (auto [strain, c] : rows_k[node])
             r[strain] += d * k_ * k_ * minv * c;
-        for (auto [strain, c] : rows_g[node]) {
-            const double v = d * 2 * loss.sigma1 * k_ * minv * c;
-            r[strain] += v;
-            s[strain] += v;
-        }
+        for (auto [strain, c] : rows_g[node])
+            s[strain] += d * 2 * loss.sigma1 * k_ * minv * c;
         for (auto [rows, src, index] : {std::tuple{&edge_r_, &r, &index_r}, std::tuple{&edge_s_, &s, &index_s}}) {
             rows->target.push_back(offset_of(node));
             for (auto [strain, c] : *src)
@@ -180,6 +186,7 @@ void PlateEngine<T>::build_edge_rows()
     }
     edge_r_.strain_value.assign(edge_r_.strain_start.size() - 1, T(0));
     edge_s_.strain_value.assign(edge_s_.strain_start.size() - 1, T(0));
+    band_next_.assign(edge_r_.target.size(), 0.0);
 }
 
 template <typename T>
@@ -212,7 +219,7 @@ double PlateEngine<T>::receiver_value(std::size_t r) const
     const PointTap &tap = receivers_[r];
     double v = 0;
     for (std::size_t n = 0; n < tap.offset.size(); ++n)
-        v += double(tap.weight[n]) * double(cur_[tap.offset[n]]);
+        v += double(tap.weight[n]) * double(u_[tap.offset[n]]);
     return v;
 }
 
@@ -229,14 +236,8 @@ template <typename T>
 template <bool Lossy>
 void PlateEngine<T>::step_impl()
 {
-    const int i0 = 2, i1 = nx_ - 1, j0 = 2, j1 = ny_ - 1;
-    if (i1 > i0 && j1 > j0) {
-        const std::size_t cells = std::size_t(i1 - i0) * std::size_t(j1 - j0);
-        const int threads = options_.threads > 0 ? options_.threads : omp_get_max_threads();
-        const int used = cells >= options_.parallel_min_cells ? threads : 1;
-        bulk_update_threads<T, Lossy>(cur_, prev_, next_, stride_, i0, i1, j0, j1, bulk_, used);
-    }
-    // The edge band: strains, then rows of the factored operator.
+    // The edge band first, into band_next_: its strains read u^n and d^n
+    // around the band, which the bulk then updates in place.
     auto strains = [](StrainRows &rows, const T *field) {
         const std::size_t n = rows.strain_value.size();
         for (std::size_t s = 0; s < n; ++s) {
@@ -246,36 +247,38 @@ void PlateEngine<T>::step_impl()
             rows.strain_value[s] = v;
         }
     };
-    strains(edge_r_, cur_);
+    strains(edge_r_, u_);
     if constexpr (Lossy)
-        strains(edge_s_, prev_);
+        strains(edge_s_, inc_);
     const std::size_t rows = edge_r_.target.size();
-    const T g = bulk_.g;
+    const double g = double(bulk_.g);
+    for (std::size_t r = 0; r < rows; ++r) {
+        double v = g * double(inc_[edge_r_.target[r]]);
+        for (std::uint32_t e = edge_r_.start[r]; e < edge_r_.start[r + 1]; ++e)
+            v -= double(edge_r_.coef[e]) * edge_r_.strain_value[edge_r_.strain[e]];
+        if constexpr (Lossy) {
+            for (std::uint32_t e = edge_s_.start[r]; e < edge_s_.start[r + 1]; ++e)
+                v -= double(edge_s_.coef[e]) * edge_s_.strain_value[edge_s_.strain[e]];
+        }
+        band_next_[r] = v;
+    }
+    // The bulk: d^{n+1} into inc_before_ (d^{n-1} is no longer needed), u in place.
+    const int i0 = 2, i1 = nx_ - 1, j0 = 2, j1 = ny_ - 1;
+    if (i1 > i0 && j1 > j0)
+        bulk_update_threads<T, Lossy>(u_, inc_, inc_before_, stride_, i0, i1, j0, j1, bulk_, bulk_threads_, scratch_);
     for (std::size_t r = 0; r < rows; ++r) {
         const std::ptrdiff_t self = edge_r_.target[r];
-        const double c = double(cur_[self]), p = double(prev_[self]);
-        double ru = 0;
-        for (std::uint32_t e = edge_r_.start[r]; e < edge_r_.start[r + 1]; ++e)
-            ru += double(edge_r_.coef[e]) * edge_r_.strain_value[edge_r_.strain[e]];
-        double v = c + double(g) * (c - p) - ru;
-        if constexpr (Lossy) {
-            double sp = 0;
-            for (std::uint32_t e = edge_s_.start[r]; e < edge_s_.start[r + 1]; ++e)
-                sp += double(edge_s_.coef[e]) * edge_s_.strain_value[edge_s_.strain[e]];
-            v += sp;
-        }
-        next_[self] = T(v);
+        const T v = T(band_next_[r]);
+        inc_before_[self] = v;
+        u_[self] += v;
     }
+    std::swap(inc_, inc_before_);
     for (PointTap &src : sources_) {
         if (src.force == T(0))
             continue;
         for (std::size_t n = 0; n < src.offset.size(); ++n)
-            next_[src.offset[n]] += src.weight[n] * src.force;
+            add_displacement(src.offset[n], src.weight[n] * src.force);
     }
-    T *old_prev = prev_;
-    prev_ = cur_;
-    cur_ = next_;
-    next_ = old_prev;
     ++steps_;
     for (auto &ext : extensions_)
         ext->after_update(*this);
@@ -286,13 +289,14 @@ double PlateEngine<T>::energy() const
 {
     const PlateOperator &op = *op_;
     const Eigen::Index n = Eigen::Index(op.unknown_count());
-    Eigen::VectorXd a(n), b(n);
+    Eigen::VectorXd a(n), inc(n);
     for (Eigen::Index u = 0; u < n; ++u) {
         const std::ptrdiff_t off = offset_of(op.node_of()[std::size_t(u)]);
-        a[u] = double(cur_[off]);
-        b[u] = double(prev_[off]);
+        a[u] = double(u_[off]);
+        inc[u] = double(inc_[off]);
     }
-    const Eigen::VectorXd v = (a - b) / k_;
+    const Eigen::VectorXd b = a - inc;
+    const Eigen::VectorXd v = inc / k_;
     double kinetic = v.dot(op.mass().cwiseProduct(v));
     const double sigma1 = op.params().loss.sigma1;
     if (sigma1 > 0)
@@ -307,17 +311,7 @@ std::vector<double> PlateEngine<T>::displacement() const
     std::vector<double> out(std::size_t(nx_ + 1) * std::size_t(ny_ + 1));
     for (int j = 0; j <= ny_; ++j)
         for (int i = 0; i <= nx_; ++i)
-            out[std::size_t(j) * std::size_t(nx_ + 1) + std::size_t(i)] = double(cur_[j * stride_ + i]);
-    return out;
-}
-
-template <typename T>
-std::vector<double> PlateEngine<T>::previous_displacement() const
-{
-    std::vector<double> out(std::size_t(nx_ + 1) * std::size_t(ny_ + 1));
-    for (int j = 0; j <= ny_; ++j)
-        for (int i = 0; i <= nx_; ++i)
-            out[std::size_t(j) * std::size_t(nx_ + 1) + std::size_t(i)] = double(prev_[j * stride_ + i]);
+            out[std::size_t(j) * std::size_t(nx_ + 1) + std::size_t(i)] = double(u_[j * stride_ + i]);
     return out;
 }
 
@@ -329,8 +323,9 @@ void PlateEngine<T>::set_state(const std::vector<double> &current, const std::ve
         throw std::invalid_argument("PlateEngine::set_state: field size does not match the grid");
     for (std::size_t node = 0; node < nodes; ++node) {
         const bool fixed = op_->unknown_of()[node] < 0;
-        cur_[offset_of(node)] = fixed ? T(0) : T(current[node]);
-        prev_[offset_of(node)] = fixed ? T(0) : T(previous[node]);
+        u_[offset_of(node)] = fixed ? T(0) : T(current[node]);
+        inc_[offset_of(node)] = fixed ? T(0) : T(current[node] - previous[node]);
+        inc_before_[offset_of(node)] = T(0);
     }
 }
 
