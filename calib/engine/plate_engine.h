@@ -9,6 +9,7 @@
 #include "engine/plate_kernels.h"
 #include "engine/plate_operator.h"
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -100,12 +101,9 @@ public:
     // effect can form u^n, u^{n-1}, centred velocities and accelerations.
     const T *newest_increment() const { return inc_; }
     const T *increment_before() const { return inc_before_; }
-    // Adds a displacement (m) to u^{n+1} at a field offset, and to d^{n+1}.
-    void add_displacement(std::ptrdiff_t offset, T delta_m)
-    {
-        u_[offset] += delta_m;
-        inc_[offset] += delta_m;
-    }
+    // Adds a displacement (m) to u^{n+1} at a field offset, and to d^{n+1}
+    // (and the momentum it carries to the rigid-body bookkeeping).
+    void add_displacement(std::ptrdiff_t offset, T delta_m);
     // Offset of a node (row-major node index) in the field layout.
     std::ptrdiff_t field_offset(std::size_t node) const { return offset_of(node); }
 
@@ -134,6 +132,10 @@ private:
     };
     template <bool Lossy>
     void step_impl();
+    // Rigid-body momenta (free plates): see build_rigid_modes().
+    void build_rigid_modes();
+    std::array<double, 3> raw_moments() const;
+    void restore_rigid_momenta();
     std::ptrdiff_t offset_of(std::size_t node) const;
     void build_edge_rows();
 
@@ -151,6 +153,14 @@ private:
     BulkCoefficients<T> bulk_{};
     StrainRows edge_r_, edge_s_;  // d+ = g d - R u - S d on the edge band
     std::vector<double> band_next_;  // d^{n+1} of the band, held while the bulk reads d^n
+    // Rigid-body modes r_c = R b_c (R: the fields 1, i, j on the unknowns) that
+    // K (and Gm, with sigma1 loss) annihilate; the momenta p_c = r_c^T M d the
+    // scheme conserves exactly (times g per step with sigma0), what sources
+    // and extensions add, and the M-Gram matrix of the modes, inverted.
+    int rigid_count_ = 0;
+    std::array<std::array<double, 3>, 3> rigid_b_{};
+    std::array<double, 3> rigid_expected_{};
+    std::array<std::array<double, 3>, 3> rigid_gram_inv_{};
     std::vector<PointTap> sources_, receivers_;
     std::vector<std::unique_ptr<EngineExtension<T>>> extensions_;
 };
