@@ -63,27 +63,39 @@ inline __attribute__((always_inline)) void laplacian_row(const T *__restrict r0,
 }
 
 // Rows [a, b) of the block. The Laplacian of u is kept for three rows (a
-// ring) plus rows b-1 and b, made before the barrier: they read u rows a-2 ..
-// a+1 and b-2 .. b+1, which the neighbouring blocks update in place after it.
+// ring) plus rows b-1 and b, made in the prologue: they read u rows a-2 ..
+// a+1 and b-2 .. b+1, which the neighbouring blocks update in place in their
+// sweep, so with several threads every prologue must finish before any sweep
+// starts (bulk_update_threads puts a barrier between them).
+template <typename T>
+inline T *laplacian_slot(T *scratch, std::ptrdiff_t s, int a, int b, int row)
+{
+    return row >= b - 1 ? scratch + (3 + row - (b - 1)) * s : scratch + ((row - a + 1) % 3) * s;
+}
+
 template <typename T, bool Lossy>
 inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1,
-                                                     int a, int b, const BulkCoefficients<T> &c, T *scratch)
+                                                     int a, int b, const BulkCoefficients<T> &c, T *scratch,
+                                                     BulkPhase phase)
 {
-    auto lap = [&](int row) { return row >= b - 1 ? scratch + (3 + row - (b - 1)) * s : scratch + ((row - a + 1) % 3) * s; };
-    if (b > a)
+    if (b <= a)
+        return;
+    if (phase != BulkPhase::sweep)
         for (int row : {a - 1, a, b - 1, b})
-            laplacian_row(u + (row - 1) * s, u + row * s, u + (row + 1) * s, lap(row), i0 - 1, i1 + 1);
-#pragma omp barrier
+            laplacian_row(u + (row - 1) * s, u + row * s, u + (row + 1) * s, laplacian_slot(scratch, s, a, b, row),
+                          i0 - 1, i1 + 1);
+    if (phase == BulkPhase::prologue)
+        return;
     for (int j = a; j < b; ++j) {
         T *u0 = u + j * s;
         const T *u1 = u0 + s, *u2 = u0 + 2 * s;
         const T *d0 = d + j * s;
+        T *lm = laplacian_slot(scratch, s, a, b, j - 1), *l0 = laplacian_slot(scratch, s, a, b, j),
+          *lp = laplacian_slot(scratch, s, a, b, j + 1);
         if (j + 1 < b - 1)
-            output_row<T, Lossy, true>(u0, u1, u2, lap(j - 1), lap(j), lap(j + 1), d0 - s, d0, d0 + s, dn + j * s,
-                                       i0, i1, c);
+            output_row<T, Lossy, true>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
         else
-            output_row<T, Lossy, false>(u0, u1, u2, lap(j - 1), lap(j), lap(j + 1), d0 - s, d0, d0 + s, dn + j * s,
-                                        i0, i1, c);
+            output_row<T, Lossy, false>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
     }
 }
 
@@ -97,14 +109,15 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
 #endif
 
 template <typename T>
-using BulkFn = void (*)(T *, const T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, T *);
+using BulkFn = void (*)(T *, const T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, T *,
+                        BulkPhase);
 
 #define HAPTIC_BULK_VARIANT(NAME, ATTR)                                                                       \
     template <typename T, bool Lossy>                                                                         \
     ATTR void NAME(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,                \
-                   const BulkCoefficients<T> &c, T *scratch)                                                  \
+                   const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)                                 \
     {                                                                                                         \
-        bulk_body<T, Lossy>(u, d, dn, s, i0, i1, j0, j1, c, scratch);                                         \
+        bulk_body<T, Lossy>(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);                                  \
     }
 
 HAPTIC_BULK_VARIANT(bulk_baseline, )
@@ -144,10 +157,10 @@ BulkFn<T> select_bulk()
 
 template <typename T, bool Lossy>
 void bulk_update(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
-                 const BulkCoefficients<T> &c, T *scratch)
+                 const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)
 {
     static const BulkFn<T> fn = select_bulk<T, Lossy>();
-    fn(u, d, dn, s, i0, i1, j0, j1, c, scratch);
+    fn(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);
 }
 
 template <typename T, bool Lossy>
@@ -160,18 +173,22 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
     }
 #pragma omp parallel num_threads(threads)
     {
-        // Contiguous blocks of rows; every thread calls the kernel (its barrier).
+        // Contiguous blocks of rows: every block's prologue reads the rows
+        // next to it before any sweep updates them in place.
         const int nth = omp_get_num_threads(), tid = omp_get_thread_num();
         const int rows = j1 - j0;
         const int a = j0 + int(std::ptrdiff_t(rows) * tid / nth);
         const int b = j0 + int(std::ptrdiff_t(rows) * (tid + 1) / nth);
-        bulk_update<T, Lossy>(u, d, dn, s, i0, i1, a, b, c, scratch + std::ptrdiff_t(tid) * bulk_scratch_rows * s);
+        T *mine = scratch + std::ptrdiff_t(tid) * bulk_scratch_rows * s;
+        bulk_update<T, Lossy>(u, d, dn, s, i0, i1, a, b, c, mine, BulkPhase::prologue);
+#pragma omp barrier
+        bulk_update<T, Lossy>(u, d, dn, s, i0, i1, a, b, c, mine, BulkPhase::sweep);
     }
 }
 
 #define HAPTIC_BULK_INSTANCES(T, L)                                                                          \
     template void bulk_update<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                \
-                                    const BulkCoefficients<T> &, T *);                                       \
+                                    const BulkCoefficients<T> &, T *, BulkPhase);                            \
     template void bulk_update_threads<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,        \
                                             const BulkCoefficients<T> &, int, T *);
 HAPTIC_BULK_INSTANCES(float, false)

@@ -43,12 +43,14 @@ struct BulkCoefficients {
 // (the Laplacian rows the sweep reuses). Loss is a compile-time choice: the
 // lossless kernel never reads the neighbours of d. Dispatches at run time to
 // the widest SIMD the CPU has (AVX-512, AVX2+FMA, baseline) where the compiler
-// supports it. Called inside an OpenMP parallel region, every thread of the
-// team must call it (it holds one barrier: u is updated in place).
+// supports it. `phase`: both parts, or only the prologue (the Laplacian rows
+// next to the block, read before a neighbouring block updates them in place)
+// or only the sweep; bulk_update_threads runs every prologue before any sweep.
 constexpr int bulk_scratch_rows = 5;
+enum class BulkPhase { both, prologue, sweep };
 template <typename T, bool Lossy>
 void bulk_update(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
-                 const BulkCoefficients<T> &c, T *scratch);
+                 const BulkCoefficients<T> &c, T *scratch, BulkPhase phase = BulkPhase::both);
 
 // The same, split into contiguous blocks of rows over `threads` OpenMP threads
 // (one fork/join; 1 thread runs inline). scratch: threads * bulk_scratch_rows rows.
