@@ -15,33 +15,39 @@
 #include <cstdlib>
 #include <cstring>
 #include <random>
+#include <utility>
 #include <vector>
 
 using namespace calib::engine;
 
 namespace {
 
-// Three time levels, rows padded to 64 bytes, random content.
+// Three time levels (the engine's u, d^n, d^{n+1}; the plain loop's u-, u,
+// u+) and the kernel's scratch rows, rows padded to 64 bytes, random content.
 template <typename T>
 struct Levels {
     int n;
     std::ptrdiff_t stride;
     T *mem;
-    T *a, *b, *c;
+    T *a, *b, *c, *scratch;
     explicit Levels(int n_) : n(n_)
     {
         const std::ptrdiff_t per_line = 64 / sizeof(T);
         stride = (n + 1 + per_line - 1) / per_line * per_line;
         const std::size_t level = std::size_t(stride) * std::size_t(n + 1);
-        mem = static_cast<T *>(std::aligned_alloc(64, 3 * level * sizeof(T)));
+        const std::size_t total = 3 * level + std::size_t(2 * bulk_scratch_rows) * std::size_t(stride);
+        mem = static_cast<T *>(std::aligned_alloc(64, total * sizeof(T)));
         std::mt19937 rng(1);
         std::uniform_real_distribution<double> u(-1, 1);
-        for (std::size_t i = 0; i < 3 * level; ++i)
+        for (std::size_t i = 0; i < total; ++i)
             mem[i] = T(u(rng));
         a = mem;
         b = mem + level;
         c = mem + 2 * level;
+        scratch = mem + 3 * level;
     }
+    // The engine's step: u (a) in place, d^n (b) read, d^{n+1} (c) written.
+    void swap_increments() { std::swap(b, c); }
     ~Levels() { std::free(mem); }
     void rotate()
     {
@@ -120,8 +126,8 @@ void BM_Bulk(benchmark::State &state)
     Levels<T> L(n);
     const auto c = coefficients<T>();
     for (auto _ : state) {
-        bulk_update_threads<T, false>(L.b, L.a, L.c, L.stride, 2, n - 1, 2, n - 1, c, threads);
-        L.rotate();
+        bulk_update_threads<T, false>(L.a, L.b, L.c, L.stride, 2, n - 1, 2, n - 1, c, threads, L.scratch);
+        L.swap_increments();
         benchmark::ClobberMemory();
     }
     const double updated = double(state.iterations()) * cells<T>(n);
@@ -139,8 +145,8 @@ void BM_BulkLossy(benchmark::State &state)
     auto c = coefficients<T>();
     c.nu1 = T(1e-3);
     for (auto _ : state) {
-        bulk_update_threads<T, true>(L.b, L.a, L.c, L.stride, 2, n - 1, 2, n - 1, c, 1);
-        L.rotate();
+        bulk_update_threads<T, true>(L.a, L.b, L.c, L.stride, 2, n - 1, 2, n - 1, c, 1, L.scratch);
+        L.swap_increments();
         benchmark::ClobberMemory();
     }
     state.counters["cells/s"] =

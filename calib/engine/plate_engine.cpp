@@ -2,6 +2,8 @@
 
 #include <omp.h>
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
@@ -52,14 +54,22 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     // Rows padded to whole 64-byte lines so every row starts aligned.
     const std::ptrdiff_t per_line = std::ptrdiff_t(64 / sizeof(T));
     stride_ = (std::ptrdiff_t(nx_ + 1) + per_line - 1) / per_line * per_line;
+    if (nx_ > 3 && ny_ > 3) {
+        const std::size_t cells = std::size_t(nx_ - 3) * std::size_t(ny_ - 3);
+        const int threads = options_.threads > 0 ? options_.threads : omp_get_max_threads();
+        bulk_threads_ = cells >= options_.parallel_min_cells ? std::max(1, threads) : 1;
+    }
     const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 1);
-    storage_ = static_cast<T *>(std::aligned_alloc(64, 3 * level * sizeof(T)));
+    const std::size_t scratch = std::size_t(stride_) * std::size_t(bulk_threads_ * bulk_scratch_rows);
+    const std::size_t total = 3 * level + scratch;
+    storage_ = static_cast<T *>(std::aligned_alloc(64, total * sizeof(T)));
     if (!storage_)
         throw std::bad_alloc();
-    std::memset(static_cast<void *>(storage_), 0, 3 * level * sizeof(T));
-    prev_ = storage_;
-    cur_ = storage_ + level;
-    next_ = storage_ + 2 * level;
+    std::memset(static_cast<void *>(storage_), 0, total * sizeof(T));
+    u_ = storage_;
+    inc_ = storage_ + level;
+    inc_before_ = storage_ + 2 * level;
+    scratch_ = storage_ + 3 * level;
 
     const Loss &loss = op_->params().loss;
     lossy_ = loss.active();
@@ -71,6 +81,7 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     bulk_.mu2 = T(d * mu2);
     bulk_.nu1 = T(d * nu1);
     build_edge_rows();
+    build_rigid_modes();
 }
 
 template <typename T>
@@ -97,8 +108,9 @@ double PlateEngine<T>::force_gain(std::size_t node) const
 }
 
 // Rows for the unknowns of the edge band, in the same form as the bulk kernel:
-//   u+ = c + g (c - p) - R u + S u-,
-//   R = d (k^2 M^-1 K + 2 sigma1 k M^-1 Gm),  S = d 2 sigma1 k M^-1 Gm,
+//   d+ = g d - R u - S d,  u+ = u + d+,
+//   R = dd k^2 M^-1 K,  S = dd 2 sigma1 k M^-1 Gm,  dd = 1 / (1 + sigma0 k)
+// (u+ = u + g (u - u-) - (R + S) u + S u- written with d = u - u-),
 // built from the factored K and Gm (sum of weight (a b^T + b a^T) / 2): row n
 // of R u is sum_s coef_ns (s . u) over the strains s. Stored as assembled
 // matrix rows instead, the float-rounded coefficients no longer sum to zero
@@ -163,11 +175,8 @@ void PlateEngine<T>::build_edge_rows()
         std::map<std::size_t, double> r, s;
         for (auto [strain, c] : rows_k[node])
             r[strain] += d * k_ * k_ * minv * c;
-        for (auto [strain, c] : rows_g[node]) {
-            const double v = d * 2 * loss.sigma1 * k_ * minv * c;
-            r[strain] += v;
-            s[strain] += v;
-        }
+        for (auto [strain, c] : rows_g[node])
+            s[strain] += d * 2 * loss.sigma1 * k_ * minv * c;
         for (auto [rows, src, index] : {std::tuple{&edge_r_, &r, &index_r}, std::tuple{&edge_s_, &s, &index_s}}) {
             rows->target.push_back(offset_of(node));
             for (auto [strain, c] : *src)
@@ -180,6 +189,121 @@ void PlateEngine<T>::build_edge_rows()
     }
     edge_r_.strain_value.assign(edge_r_.strain_start.size() - 1, T(0));
     edge_s_.strain_value.assign(edge_s_.strain_start.size() - 1, T(0));
+    band_next_.assign(edge_r_.target.size(), 0.0);
+}
+
+// Rigid-body momenta. A plate with free edges has rigid-body modes r (all
+// free: 1, x, y; one supported edge and three free: the rotation about it).
+// K r = 0 and M r are left null vectors of the update, so the scheme keeps
+// p = r^T M d exactly (times g per step with sigma0 loss; sigma1 loss keeps
+// only the modes with Gm r = 0). Stored in floating point, d is rounded at
+// every node and step and p random-walks: ~ eps |d| sqrt(steps / nodes), a
+// rigid drift growing as eps steps^1.5 (measured: 2e2 x the field in 1e7
+// float steps of a 16 x 13 free plate at rest). The engine keeps the exact
+// value of p (what sources and extensions add, in double) and every
+// rigid_interval steps restores it by adding the rigid velocity that makes up
+// the difference: a rank-3 correction in the null space of K, which moves no
+// elastic mode (docs/engine.md, "Rigid-body modes in float").
+constexpr std::size_t rigid_interval = 16;
+
+template <typename T>
+void PlateEngine<T>::build_rigid_modes()
+{
+    const PlateOperator &op = *op_;
+    const Edges &e = op.params().edges;
+    rigid_count_ = 0;
+    if (e.left != EdgeKind::free && e.right != EdgeKind::free && e.bottom != EdgeKind::free &&
+        e.top != EdgeKind::free)
+        return;
+    const Eigen::Index n = Eigen::Index(op.unknown_count());
+    Eigen::MatrixXd r(n, 3);
+    for (Eigen::Index u = 0; u < n; ++u) {
+        const std::size_t node = op.node_of()[std::size_t(u)];
+        r(u, 0) = 1;
+        r(u, 1) = double(node % std::size_t(nx_ + 1));
+        r(u, 2) = double(node / std::size_t(nx_ + 1));
+    }
+    const Eigen::Matrix3d gram = r.transpose() * op.mass().asDiagonal() * r;
+    if (Eigen::LLT<Eigen::Matrix3d>(gram).info() != Eigen::Success)
+        return;  // the unknowns lie on one line: no rigid mode to keep
+    Eigen::Matrix3d form = (r.transpose() * (op.stiffness() * r)) / op.lambda_max_stiffness();
+    if (op.params().loss.sigma1 > 0)
+        form += (r.transpose() * (op.dirichlet() * r)) / op.lambda_max_dirichlet();
+    // Generalized eigenvectors are M-orthonormal (b^T gram b = 1): the Gram
+    // matrix of the kept modes is the identity.
+    const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix3d> es(0.5 * (form + form.transpose()), gram);
+    for (int c = 0; c < 3; ++c)
+        if (std::abs(es.eigenvalues()[c]) < 1e-9) {
+            for (int q = 0; q < 3; ++q)
+                rigid_b_[std::size_t(rigid_count_)][std::size_t(q)] = es.eigenvectors()(q, c);
+            ++rigid_count_;
+        }
+    const auto raw = raw_moments();
+    for (int c = 0; c < rigid_count_; ++c)
+        rigid_expected_[std::size_t(c)] = rigid_b_[std::size_t(c)][0] * raw[0] +
+                                          rigid_b_[std::size_t(c)][1] * raw[1] + rigid_b_[std::size_t(c)][2] * raw[2];
+}
+
+// sum_n m_n (1, i, j) d_n over the unknowns.
+template <typename T>
+std::array<double, 3> PlateEngine<T>::raw_moments() const
+{
+    std::array<double, 3> q{};
+    const PlateOperator &op = *op_;
+    for (int j = 0; j <= ny_; ++j) {
+        double s0 = 0, s1 = 0;
+        for (int i = 0; i <= nx_; ++i) {
+            const std::ptrdiff_t u = op.unknown_of()[op.grid().node(i, j)];
+            if (u < 0)
+                continue;
+            const double md = op.mass()[Eigen::Index(u)] * double(inc_[j * stride_ + i]);
+            s0 += md;
+            s1 += md * i;
+        }
+        q[0] += s0;
+        q[1] += s1;
+        q[2] += s0 * j;
+    }
+    return q;
+}
+
+template <typename T>
+void PlateEngine<T>::restore_rigid_momenta()
+{
+    const auto raw = raw_moments();
+    double a0 = 0, a1 = 0, a2 = 0;  // the correction a0 + a1 i + a2 j
+    for (int c = 0; c < rigid_count_; ++c) {
+        const auto &b = rigid_b_[std::size_t(c)];
+        const double gap = rigid_expected_[std::size_t(c)] - (b[0] * raw[0] + b[1] * raw[1] + b[2] * raw[2]);
+        a0 += gap * b[0];
+        a1 += gap * b[1];
+        a2 += gap * b[2];
+    }
+    if (a0 == 0 && a1 == 0 && a2 == 0)
+        return;
+    const PlateOperator &op = *op_;
+    for (int j = 0; j <= ny_; ++j)
+        for (int i = 0; i <= nx_; ++i)
+            if (op.unknown_of()[op.grid().node(i, j)] >= 0)
+                inc_[j * stride_ + i] += T(a0 + a1 * i + a2 * j);
+}
+
+template <typename T>
+void PlateEngine<T>::add_displacement(std::ptrdiff_t offset, T delta_m)
+{
+    u_[offset] += delta_m;
+    inc_[offset] += delta_m;
+    if (rigid_count_ == 0)
+        return;
+    const int i = int(offset % stride_), j = int(offset / stride_);
+    const std::ptrdiff_t u = op_->unknown_of()[op_->grid().node(i, j)];
+    if (u < 0)
+        return;
+    const double md = op_->mass()[Eigen::Index(u)] * double(delta_m);
+    for (int c = 0; c < rigid_count_; ++c) {
+        const auto &b = rigid_b_[std::size_t(c)];
+        rigid_expected_[std::size_t(c)] += md * (b[0] + b[1] * i + b[2] * j);
+    }
 }
 
 template <typename T>
@@ -212,7 +336,7 @@ double PlateEngine<T>::receiver_value(std::size_t r) const
     const PointTap &tap = receivers_[r];
     double v = 0;
     for (std::size_t n = 0; n < tap.offset.size(); ++n)
-        v += double(tap.weight[n]) * double(cur_[tap.offset[n]]);
+        v += double(tap.weight[n]) * double(u_[tap.offset[n]]);
     return v;
 }
 
@@ -229,14 +353,8 @@ template <typename T>
 template <bool Lossy>
 void PlateEngine<T>::step_impl()
 {
-    const int i0 = 2, i1 = nx_ - 1, j0 = 2, j1 = ny_ - 1;
-    if (i1 > i0 && j1 > j0) {
-        const std::size_t cells = std::size_t(i1 - i0) * std::size_t(j1 - j0);
-        const int threads = options_.threads > 0 ? options_.threads : omp_get_max_threads();
-        const int used = cells >= options_.parallel_min_cells ? threads : 1;
-        bulk_update_threads<T, Lossy>(cur_, prev_, next_, stride_, i0, i1, j0, j1, bulk_, used);
-    }
-    // The edge band: strains, then rows of the factored operator.
+    // The edge band first, into band_next_: its strains read u^n and d^n
+    // around the band, which the bulk then updates in place.
     auto strains = [](StrainRows &rows, const T *field) {
         const std::size_t n = rows.strain_value.size();
         for (std::size_t s = 0; s < n; ++s) {
@@ -246,37 +364,43 @@ void PlateEngine<T>::step_impl()
             rows.strain_value[s] = v;
         }
     };
-    strains(edge_r_, cur_);
+    strains(edge_r_, u_);
     if constexpr (Lossy)
-        strains(edge_s_, prev_);
+        strains(edge_s_, inc_);
     const std::size_t rows = edge_r_.target.size();
-    const T g = bulk_.g;
+    const double g = double(bulk_.g);
+    for (std::size_t r = 0; r < rows; ++r) {
+        double v = g * double(inc_[edge_r_.target[r]]);
+        for (std::uint32_t e = edge_r_.start[r]; e < edge_r_.start[r + 1]; ++e)
+            v -= double(edge_r_.coef[e]) * edge_r_.strain_value[edge_r_.strain[e]];
+        if constexpr (Lossy) {
+            for (std::uint32_t e = edge_s_.start[r]; e < edge_s_.start[r + 1]; ++e)
+                v -= double(edge_s_.coef[e]) * edge_s_.strain_value[edge_s_.strain[e]];
+        }
+        band_next_[r] = v;
+    }
+    // The bulk: d^{n+1} into inc_before_ (d^{n-1} is no longer needed), u in place.
+    const int i0 = 2, i1 = nx_ - 1, j0 = 2, j1 = ny_ - 1;
+    if (i1 > i0 && j1 > j0)
+        bulk_update_threads<T, Lossy>(u_, inc_, inc_before_, stride_, i0, i1, j0, j1, bulk_, bulk_threads_, scratch_);
     for (std::size_t r = 0; r < rows; ++r) {
         const std::ptrdiff_t self = edge_r_.target[r];
-        const double c = double(cur_[self]), p = double(prev_[self]);
-        double ru = 0;
-        for (std::uint32_t e = edge_r_.start[r]; e < edge_r_.start[r + 1]; ++e)
-            ru += double(edge_r_.coef[e]) * edge_r_.strain_value[edge_r_.strain[e]];
-        double v = c + double(g) * (c - p) - ru;
-        if constexpr (Lossy) {
-            double sp = 0;
-            for (std::uint32_t e = edge_s_.start[r]; e < edge_s_.start[r + 1]; ++e)
-                sp += double(edge_s_.coef[e]) * edge_s_.strain_value[edge_s_.strain[e]];
-            v += sp;
-        }
-        next_[self] = T(v);
+        const T v = T(band_next_[r]);
+        inc_before_[self] = v;
+        u_[self] += v;
     }
+    std::swap(inc_, inc_before_);
+    for (int c = 0; c < rigid_count_; ++c)
+        rigid_expected_[std::size_t(c)] *= g;
     for (PointTap &src : sources_) {
         if (src.force == T(0))
             continue;
         for (std::size_t n = 0; n < src.offset.size(); ++n)
-            next_[src.offset[n]] += src.weight[n] * src.force;
+            add_displacement(src.offset[n], src.weight[n] * src.force);
     }
-    T *old_prev = prev_;
-    prev_ = cur_;
-    cur_ = next_;
-    next_ = old_prev;
     ++steps_;
+    if (rigid_count_ > 0 && steps_ % rigid_interval == 0)
+        restore_rigid_momenta();
     for (auto &ext : extensions_)
         ext->after_update(*this);
 }
@@ -286,13 +410,14 @@ double PlateEngine<T>::energy() const
 {
     const PlateOperator &op = *op_;
     const Eigen::Index n = Eigen::Index(op.unknown_count());
-    Eigen::VectorXd a(n), b(n);
+    Eigen::VectorXd a(n), inc(n);
     for (Eigen::Index u = 0; u < n; ++u) {
         const std::ptrdiff_t off = offset_of(op.node_of()[std::size_t(u)]);
-        a[u] = double(cur_[off]);
-        b[u] = double(prev_[off]);
+        a[u] = double(u_[off]);
+        inc[u] = double(inc_[off]);
     }
-    const Eigen::VectorXd v = (a - b) / k_;
+    const Eigen::VectorXd b = a - inc;
+    const Eigen::VectorXd v = inc / k_;
     double kinetic = v.dot(op.mass().cwiseProduct(v));
     const double sigma1 = op.params().loss.sigma1;
     if (sigma1 > 0)
@@ -307,17 +432,7 @@ std::vector<double> PlateEngine<T>::displacement() const
     std::vector<double> out(std::size_t(nx_ + 1) * std::size_t(ny_ + 1));
     for (int j = 0; j <= ny_; ++j)
         for (int i = 0; i <= nx_; ++i)
-            out[std::size_t(j) * std::size_t(nx_ + 1) + std::size_t(i)] = double(cur_[j * stride_ + i]);
-    return out;
-}
-
-template <typename T>
-std::vector<double> PlateEngine<T>::previous_displacement() const
-{
-    std::vector<double> out(std::size_t(nx_ + 1) * std::size_t(ny_ + 1));
-    for (int j = 0; j <= ny_; ++j)
-        for (int i = 0; i <= nx_; ++i)
-            out[std::size_t(j) * std::size_t(nx_ + 1) + std::size_t(i)] = double(prev_[j * stride_ + i]);
+            out[std::size_t(j) * std::size_t(nx_ + 1) + std::size_t(i)] = double(u_[j * stride_ + i]);
     return out;
 }
 
@@ -329,8 +444,14 @@ void PlateEngine<T>::set_state(const std::vector<double> &current, const std::ve
         throw std::invalid_argument("PlateEngine::set_state: field size does not match the grid");
     for (std::size_t node = 0; node < nodes; ++node) {
         const bool fixed = op_->unknown_of()[node] < 0;
-        cur_[offset_of(node)] = fixed ? T(0) : T(current[node]);
-        prev_[offset_of(node)] = fixed ? T(0) : T(previous[node]);
+        u_[offset_of(node)] = fixed ? T(0) : T(current[node]);
+        inc_[offset_of(node)] = fixed ? T(0) : T(current[node] - previous[node]);
+        inc_before_[offset_of(node)] = T(0);
+    }
+    const auto raw = raw_moments();
+    for (int c = 0; c < rigid_count_; ++c) {
+        const auto &b = rigid_b_[std::size_t(c)];
+        rigid_expected_[std::size_t(c)] = b[0] * raw[0] + b[1] * raw[1] + b[2] * raw[2];
     }
 }
 

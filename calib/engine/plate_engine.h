@@ -1,13 +1,15 @@
 // The plate *engine*: state and time stepping for one PlateOperator. The
-// bulk update is a compiled kernel (plate_kernels.h), chosen per step between
-// the lossless and the lossy variant; the rows near the edges are sparse rows
-// of the assembled operator; sources, receivers and effect extensions act on a
-// few nodes after that.
+// state is the displacement u^n and the increment d^n = u^n - u^{n-1}
+// (leapfrog in increment form, plate_kernels.h). The bulk update is a
+// compiled kernel, chosen per step between the lossless and the lossy
+// variant; the rows near the edges are sparse rows of the factored operator;
+// sources, receivers and effect extensions act on a few nodes after that.
 #pragma once
 
 #include "engine/plate_kernels.h"
 #include "engine/plate_operator.h"
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -38,11 +40,12 @@ private:
 template <typename T>
 class PlateEngine;
 
-// An effect with a state of its own (issue #6: finger, exciter model;
-// engine/effects/) acts after the bulk, edge and source update on a few
-// nodes. It sees the new field u^{n+1} (newest_field()), u^n and u^{n-1}
-// (field_before(), field_two_before()) and may add to u^{n+1}, scaled like a
-// force (force_gain()). An engine without extensions never calls a hook.
+// An effect with a state of its own (finger, exciter model; engine/effects/)
+// acts after the bulk, edge and source update on a few nodes. It sees the new
+// field u^{n+1} (newest_field()) and the increments d^{n+1} = u^{n+1} - u^n
+// and d^n (newest_increment(), increment_before()), and may add to u^{n+1}
+// (add_displacement(), which keeps d^{n+1} consistent), scaled like a force
+// (force_gain()). An engine without extensions never calls a hook.
 template <typename T>
 class EngineExtension {
 public:
@@ -68,8 +71,6 @@ public:
     // displacement with the same weights, which makes A->B equal B->A.
     std::size_t add_source(double x_m, double y_m);
     std::size_t add_receiver(double x_m, double y_m);
-    std::size_t source_count() const { return sources_.size(); }
-    std::size_t receiver_count() const { return receivers_.size(); }
     // Force applied during the next step (held constant over that step).
     void set_source_force(std::size_t source, double force_n) { sources_[source].force = T(force_n); }
     // Displacement (m) at a receiver for the current time level.
@@ -77,7 +78,7 @@ public:
 
     void add_extension(std::unique_ptr<EngineExtension<T>> ext) { extensions_.push_back(std::move(ext)); }
 
-    // One step: u^{n+1} from u^n, u^{n-1}.
+    // One step: u^{n+1} and d^{n+1} from u^n and d^n.
     void step();
 
     // Discrete energy (J) at time n+1/2 from the two newest levels; exactly
@@ -86,27 +87,30 @@ public:
 
     // Fields on the node grid, row-major (j, i), (ny+1) x (nx+1), metres.
     std::vector<double> displacement() const;
-    std::vector<double> previous_displacement() const;
     // Sets u^n and u^{n-1} (values at fixed nodes are ignored).
     void set_state(const std::vector<double> &current, const std::vector<double> &previous);
 
-    // For extensions: the newest level (writable), node (i, j) is at
+    using value_type = T;
+    // For extensions and checks: the newest level, node (i, j) is at
     // field[j * stride() + i]; force_gain(node) turns a force (N) at a node
     // into its displacement increment this step.
-    T *newest_field() { return cur_; }
+    const T *newest_field() const { return u_; }
     std::ptrdiff_t stride() const { return stride_; }
     double force_gain(std::size_t node) const;
-    // During after_update(): u^n and u^{n-1} (newest_field() is u^{n+1}), so a
-    // point effect can form centred velocities and accelerations.
-    const T *field_before() const { return prev_; }
-    const T *field_two_before() const { return next_; }
+    // During after_update(): d^{n+1} = u^{n+1} - u^n and d^n, so a point
+    // effect can form u^n, u^{n-1}, centred velocities and accelerations.
+    const T *newest_increment() const { return inc_; }
+    const T *increment_before() const { return inc_before_; }
+    // Adds a displacement (m) to u^{n+1} at a field offset, and to d^{n+1}
+    // (and the momentum it carries to the rigid-body bookkeeping).
+    void add_displacement(std::ptrdiff_t offset, T delta_m);
     // Offset of a node (row-major node index) in the field layout.
     std::ptrdiff_t field_offset(std::size_t node) const { return offset_of(node); }
 
 private:
     // Edge-band rows in factored form (plate_operator.h): first the strains
-    // (integer-weighted differences of the field), then each row as a
-    // combination of strains. A free plate's rigid motion has zero strains,
+    // (integer-weighted differences of the field: of u for K, of d for Gm),
+    // then each row as a combination of strains. A free plate's rigid motion has zero strains,
     // so it feels no force in float either, whatever the rounding of `coef`.
     // The band sums in double (a row has up to ~20 terms; the band is a thin
     // fraction of the grid), so its round-off is one rounding per node and
@@ -128,6 +132,10 @@ private:
     };
     template <bool Lossy>
     void step_impl();
+    // Rigid-body momenta (free plates): see build_rigid_modes().
+    void build_rigid_modes();
+    std::array<double, 3> raw_moments() const;
+    void restore_rigid_momenta();
     std::ptrdiff_t offset_of(std::size_t node) const;
     void build_edge_rows();
 
@@ -138,10 +146,21 @@ private:
     int nx_ = 0, ny_ = 0;
     std::ptrdiff_t stride_ = 0;
     std::size_t steps_ = 0;
+    int bulk_threads_ = 1;
     T *storage_ = nullptr;
-    T *prev_ = nullptr, *cur_ = nullptr, *next_ = nullptr;
+    T *u_ = nullptr, *inc_ = nullptr, *inc_before_ = nullptr;  // u^n, d^n, d^{n-1} (before a step)
+    T *scratch_ = nullptr;  // the bulk kernel's rows, bulk_threads_ * bulk_scratch_rows
     BulkCoefficients<T> bulk_{};
-    StrainRows edge_r_, edge_s_;  // u+ = c + g (c - p) - R u + S u- on the edge band
+    StrainRows edge_r_, edge_s_;  // d+ = g d - R u - S d on the edge band
+    std::vector<double> band_next_;  // d^{n+1} of the band, held while the bulk reads d^n
+    // Rigid-body modes r_c = R b_c (R: the fields 1, i, j on the unknowns) that
+    // K (and Gm, with sigma1 loss) annihilate; the momenta p_c = r_c^T M d the
+    // scheme conserves exactly (times g per step with sigma0), what sources
+    // and extensions add, and the M-Gram matrix of the modes, inverted.
+    int rigid_count_ = 0;
+    std::array<std::array<double, 3>, 3> rigid_b_{};
+    std::array<double, 3> rigid_expected_{};
+    std::array<std::array<double, 3>, 3> rigid_gram_inv_{};
     std::vector<PointTap> sources_, receivers_;
     std::vector<std::unique_ptr<EngineExtension<T>>> extensions_;
 };

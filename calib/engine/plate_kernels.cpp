@@ -3,122 +3,99 @@
 #include <omp.h>
 
 #include <cstddef>
+#include <initializer_list>
 
 namespace calib::engine {
 
 namespace {
 
-// Several output rows per pass: rows j-2 .. j+3 are loaded once for two
-// outputs, and the horizontal pair sums of rows j and j+1 are shared between
-// their s1 and s2 (18 loads of u per 2 nodes instead of 26). No branches
-// inside the i loop.
-template <typename T, bool Lossy>
-inline __attribute__((always_inline)) void bulk_body(const T *__restrict u, const T *__restrict up,
-                                                     T *__restrict un, std::ptrdiff_t s, int i0, int i1, int j0,
-                                                     int j1, const BulkCoefficients<T> &c)
+// One output row j of the sweep: the Laplacian row j+1 (fresh, or read when
+// the block's prologue made it), the biharmonic from Laplacian rows j-1, j,
+// j+1, then d^{n+1} and u^{n+1} in place. u row j is read (for the Laplacian
+// of row j+1) before it is written, in the same iteration; no later iteration
+// reads it. No branches inside the i loop.
+template <typename T, bool Lossy, bool Fresh>
+inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T *__restrict u1,
+                                                      const T *__restrict u2, const T *__restrict lm,
+                                                      const T *__restrict l0, T *__restrict lp,
+                                                      const T *__restrict dm, const T *__restrict d0,
+                                                      const T *__restrict dp, T *__restrict dn, int i0, int i1,
+                                                      const BulkCoefficients<T> &c)
 {
     const T g = c.g, mu2 = c.mu2, nu1 = c.nu1;
-    int j = j0;
-    // Four output rows per pass: the centre of rows j-2 .. j+5, the horizontal
-    // pair sums of rows j-1 .. j+4 and the distance-2 pairs of rows j .. j+3
-    // are each loaded or formed once (8 loads per node instead of 10). Only
-    // while the 16 rows it streams fit in L1: on long rows it was measured
-    // 10-15 % slower than the two-row pass below.
-    const bool four_rows = std::size_t(i1 - i0) * sizeof(T) * 16 <= 32768;
-    if constexpr (!Lossy) {
-        for (; four_rows && j + 3 < j1; j += 4) {
-            const T *__restrict r[8];
-            for (int k = 0; k < 8; ++k)
-                r[k] = u + (j - 2 + k) * s;
-            const T *__restrict p0 = up + j * s;
-            T *__restrict o0 = un + j * s;
-#pragma omp simd
-            for (int i = i0; i < i1; ++i) {
-                T cc[8], hh[6], qq[4];
-#pragma GCC unroll 8
-                for (int k = 0; k < 8; ++k)
-                    cc[k] = r[k][i];
-#pragma GCC unroll 6
-                for (int k = 0; k < 6; ++k)
-                    hh[k] = r[k + 1][i - 1] + r[k + 1][i + 1];
-#pragma GCC unroll 4
-                for (int k = 0; k < 4; ++k)
-                    qq[k] = r[k + 2][i - 2] + r[k + 2][i + 2];
-#pragma GCC unroll 4
-                for (int k = 0; k < 4; ++k) {
-                    const T s1 = hh[k + 1] + (cc[k + 1] + cc[k + 3]);
-                    const T s2 = hh[k] + hh[k + 2];
-                    const T s3 = qq[k] + (cc[k] + cc[k + 4]);
-                    const T lap2 = T(20) * cc[k + 2] - T(8) * s1 + T(2) * s2 + s3;
-                    const T ctr = cc[k + 2];
-                    o0[k * s + i] = ctr + g * (ctr - p0[k * s + i]) - mu2 * lap2;
-                }
-            }
+    if constexpr (Fresh) {
+        // The two columns beyond the row (band columns: never written by the sweep).
+        for (int i : {i0 - 1, i1}) {
+            const T cc = u1[i];
+            lp[i] = ((u1[i - 1] - cc) + (u1[i + 1] - cc)) + ((u0[i] - cc) + (u2[i] - cc));
         }
     }
-    for (; j + 1 < j1; j += 2) {
-        const T *__restrict rm2 = u + (j - 2) * s;
-        const T *__restrict rm1 = u + (j - 1) * s;
-        const T *__restrict r0 = u + j * s;
-        const T *__restrict r1 = u + (j + 1) * s;
-        const T *__restrict r2 = u + (j + 2) * s;
-        const T *__restrict r3 = u + (j + 3) * s;
-        const T *__restrict p0 = up + j * s;
-        const T *__restrict p1 = up + (j + 1) * s;
-        T *__restrict o0 = un + j * s;
-        T *__restrict o1 = un + (j + 1) * s;
 #pragma omp simd
-        for (int i = i0; i < i1; ++i) {
-            const T c0 = r0[i], c1 = r1[i];
-            const T h0 = r0[i - 1] + r0[i + 1];
-            const T h1 = r1[i - 1] + r1[i + 1];
-            const T s1a = h0 + rm1[i] + c1;
-            const T s1b = h1 + c0 + r2[i];
-            const T s2a = (rm1[i - 1] + rm1[i + 1]) + h1;
-            const T s2b = h0 + (r2[i - 1] + r2[i + 1]);
-            const T s3a = (r0[i - 2] + r0[i + 2]) + (rm2[i] + r2[i]);
-            const T s3b = (r1[i - 2] + r1[i + 2]) + (rm1[i] + r3[i]);
-            const T lap2a = T(20) * c0 - T(8) * s1a + T(2) * s2a + s3a;
-            const T lap2b = T(20) * c1 - T(8) * s1b + T(2) * s2b + s3b;
-            T va = c0 + g * (c0 - p0[i]) - mu2 * lap2a;
-            T vb = c1 + g * (c1 - p1[i]) - mu2 * lap2b;
-            if constexpr (Lossy) {
-                const T *__restrict pm1 = up + (j - 1) * s;
-                const T *__restrict p2 = up + (j + 2) * s;
-                const T lapc_a = T(4) * c0 - s1a, lapc_b = T(4) * c1 - s1b;
-                const T lapp_a = T(4) * p0[i] - ((p0[i - 1] + p0[i + 1]) + (pm1[i] + p1[i]));
-                const T lapp_b = T(4) * p1[i] - ((p1[i - 1] + p1[i + 1]) + (p0[i] + p2[i]));
-                va += nu1 * (lapp_a - lapc_a);
-                vb += nu1 * (lapp_b - lapc_b);
-            }
-            o0[i] = va;
-            o1[i] = vb;
+    for (int i = i0; i < i1; ++i) {
+        T lnext;
+        if constexpr (Fresh) {
+            const T cc = u1[i];
+            lnext = ((u1[i - 1] - cc) + (u1[i + 1] - cc)) + ((u0[i] - cc) + (u2[i] - cc));
+            lp[i] = lnext;
+        } else {
+            lnext = lp[i];
         }
+        const T lap2 = ((lm[i] + lnext) + (l0[i - 1] + l0[i + 1])) - T(4) * l0[i];
+        T v = g * d0[i] - mu2 * lap2;
+        if constexpr (Lossy) {
+            const T dc = d0[i];
+            v += nu1 * (((d0[i - 1] - dc) + (d0[i + 1] - dc)) + ((dm[i] - dc) + (dp[i] - dc)));
+        }
+        dn[i] = v;
+        u0[i] += v;
     }
-    for (; j < j1; ++j) {
-        const T *__restrict rm2 = u + (j - 2) * s;
-        const T *__restrict rm1 = u + (j - 1) * s;
-        const T *__restrict r0 = u + j * s;
-        const T *__restrict r1 = u + (j + 1) * s;
-        const T *__restrict r2 = u + (j + 2) * s;
-        const T *__restrict p0 = up + j * s;
-        T *__restrict o0 = un + j * s;
+}
+
+template <typename T>
+inline __attribute__((always_inline)) void laplacian_row(const T *__restrict r0, const T *__restrict r1,
+                                                         const T *__restrict r2, T *__restrict out, int lo, int hi)
+{
 #pragma omp simd
-        for (int i = i0; i < i1; ++i) {
-            const T s1 = (r0[i - 1] + r0[i + 1]) + rm1[i] + r1[i];
-            const T s2 = (rm1[i - 1] + rm1[i + 1]) + (r1[i - 1] + r1[i + 1]);
-            const T s3 = (r0[i - 2] + r0[i + 2]) + (rm2[i] + r2[i]);
-            const T lap2 = T(20) * r0[i] - T(8) * s1 + T(2) * s2 + s3;
-            T v = r0[i] + g * (r0[i] - p0[i]) - mu2 * lap2;
-            if constexpr (Lossy) {
-                const T *__restrict pm1 = up + (j - 1) * s;
-                const T *__restrict pp1 = up + (j + 1) * s;
-                const T lapc = T(4) * r0[i] - s1;
-                const T lapp = T(4) * p0[i] - ((p0[i - 1] + p0[i + 1]) + (pm1[i] + pp1[i]));
-                v += nu1 * (lapp - lapc);
-            }
-            o0[i] = v;
-        }
+    for (int i = lo; i < hi; ++i) {
+        const T cc = r1[i];
+        out[i] = ((r1[i - 1] - cc) + (r1[i + 1] - cc)) + ((r0[i] - cc) + (r2[i] - cc));
+    }
+}
+
+// Rows [a, b) of the block. The Laplacian of u is kept for three rows (a
+// ring) plus rows b-1 and b, made in the prologue: they read u rows a-2 ..
+// a+1 and b-2 .. b+1, which the neighbouring blocks update in place in their
+// sweep, so with several threads every prologue must finish before any sweep
+// starts (bulk_update_threads puts a barrier between them).
+template <typename T>
+inline T *laplacian_slot(T *scratch, std::ptrdiff_t s, int a, int b, int row)
+{
+    return row >= b - 1 ? scratch + (3 + row - (b - 1)) * s : scratch + ((row - a + 1) % 3) * s;
+}
+
+template <typename T, bool Lossy>
+inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1,
+                                                     int a, int b, const BulkCoefficients<T> &c, T *scratch,
+                                                     BulkPhase phase)
+{
+    if (b <= a)
+        return;
+    if (phase != BulkPhase::sweep)
+        for (int row : {a - 1, a, b - 1, b})
+            laplacian_row(u + (row - 1) * s, u + row * s, u + (row + 1) * s, laplacian_slot(scratch, s, a, b, row),
+                          i0 - 1, i1 + 1);
+    if (phase == BulkPhase::prologue)
+        return;
+    for (int j = a; j < b; ++j) {
+        T *u0 = u + j * s;
+        const T *u1 = u0 + s, *u2 = u0 + 2 * s;
+        const T *d0 = d + j * s;
+        T *lm = laplacian_slot(scratch, s, a, b, j - 1), *l0 = laplacian_slot(scratch, s, a, b, j),
+          *lp = laplacian_slot(scratch, s, a, b, j + 1);
+        if (j + 1 < b - 1)
+            output_row<T, Lossy, true>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
+        else
+            output_row<T, Lossy, false>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
     }
 }
 
@@ -132,14 +109,15 @@ inline __attribute__((always_inline)) void bulk_body(const T *__restrict u, cons
 #endif
 
 template <typename T>
-using BulkFn = void (*)(const T *, const T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &);
+using BulkFn = void (*)(T *, const T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, T *,
+                        BulkPhase);
 
 #define HAPTIC_BULK_VARIANT(NAME, ATTR)                                                                       \
     template <typename T, bool Lossy>                                                                         \
-    ATTR void NAME(const T *u, const T *up, T *un, std::ptrdiff_t s, int i0, int i1, int j0, int j1,         \
-                   const BulkCoefficients<T> &c)                                                              \
+    ATTR void NAME(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,                \
+                   const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)                                 \
     {                                                                                                         \
-        bulk_body<T, Lossy>(u, up, un, s, i0, i1, j0, j1, c);                                                 \
+        bulk_body<T, Lossy>(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);                                  \
     }
 
 HAPTIC_BULK_VARIANT(bulk_baseline, )
@@ -178,50 +156,45 @@ BulkFn<T> select_bulk()
 }  // namespace
 
 template <typename T, bool Lossy>
-void bulk_update(const T *u, const T *up, T *un, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
-                 const BulkCoefficients<T> &c)
+void bulk_update(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
+                 const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)
 {
     static const BulkFn<T> fn = select_bulk<T, Lossy>();
-    fn(u, up, un, s, i0, i1, j0, j1, c);
+    fn(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);
 }
 
-template void bulk_update<float, false>(const float *, const float *, float *, std::ptrdiff_t, int, int, int, int,
-                                        const BulkCoefficients<float> &);
-template void bulk_update<float, true>(const float *, const float *, float *, std::ptrdiff_t, int, int, int, int,
-                                       const BulkCoefficients<float> &);
-template void bulk_update<double, false>(const double *, const double *, double *, std::ptrdiff_t, int, int, int, int,
-                                         const BulkCoefficients<double> &);
-template void bulk_update<double, true>(const double *, const double *, double *, std::ptrdiff_t, int, int, int, int,
-                                        const BulkCoefficients<double> &);
-
 template <typename T, bool Lossy>
-void bulk_update_threads(const T *u, const T *up, T *un, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
-                         const BulkCoefficients<T> &c, int threads)
+void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
+                         const BulkCoefficients<T> &c, int threads, T *scratch)
 {
     if (threads <= 1) {
-        bulk_update<T, Lossy>(u, up, un, s, i0, i1, j0, j1, c);
+        bulk_update<T, Lossy>(u, d, dn, s, i0, i1, j0, j1, c, scratch);
         return;
     }
 #pragma omp parallel num_threads(threads)
     {
-        // Contiguous blocks of an even number of rows (the kernel pairs rows).
+        // Contiguous blocks of rows: every block's prologue reads the rows
+        // next to it before any sweep updates them in place.
         const int nth = omp_get_num_threads(), tid = omp_get_thread_num();
-        const int pairs = (j1 - j0 + 1) / 2;
-        const int a = j0 + 2 * (pairs * tid / nth);
-        const int b = tid == nth - 1 ? j1 : j0 + 2 * (pairs * (tid + 1) / nth);
-        if (b > a)
-            bulk_update<T, Lossy>(u, up, un, s, i0, i1, a, b, c);
+        const int rows = j1 - j0;
+        const int a = j0 + int(std::ptrdiff_t(rows) * tid / nth);
+        const int b = j0 + int(std::ptrdiff_t(rows) * (tid + 1) / nth);
+        T *mine = scratch + std::ptrdiff_t(tid) * bulk_scratch_rows * s;
+        bulk_update<T, Lossy>(u, d, dn, s, i0, i1, a, b, c, mine, BulkPhase::prologue);
+#pragma omp barrier
+        bulk_update<T, Lossy>(u, d, dn, s, i0, i1, a, b, c, mine, BulkPhase::sweep);
     }
 }
 
-template void bulk_update_threads<float, false>(const float *, const float *, float *, std::ptrdiff_t, int, int, int,
-                                                int, const BulkCoefficients<float> &, int);
-template void bulk_update_threads<float, true>(const float *, const float *, float *, std::ptrdiff_t, int, int, int,
-                                               int, const BulkCoefficients<float> &, int);
-template void bulk_update_threads<double, false>(const double *, const double *, double *, std::ptrdiff_t, int, int,
-                                                 int, int, const BulkCoefficients<double> &, int);
-template void bulk_update_threads<double, true>(const double *, const double *, double *, std::ptrdiff_t, int, int,
-                                                int, int, const BulkCoefficients<double> &, int);
+#define HAPTIC_BULK_INSTANCES(T, L)                                                                          \
+    template void bulk_update<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                \
+                                    const BulkCoefficients<T> &, T *, BulkPhase);                            \
+    template void bulk_update_threads<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,        \
+                                            const BulkCoefficients<T> &, int, T *);
+HAPTIC_BULK_INSTANCES(float, false)
+HAPTIC_BULK_INSTANCES(float, true)
+HAPTIC_BULK_INSTANCES(double, false)
+HAPTIC_BULK_INSTANCES(double, true)
 
 const char *bulk_update_isa()
 {

@@ -2,18 +2,27 @@
 // cells away from every edge), where every row of the operator is the same
 // stencil. Near the edges the engine applies sparse rows instead.
 //
-// Per node, with c = u(i,j), s1 = the 4 nearest neighbours, s2 = the 4
-// diagonal ones, s3 = the 4 at distance 2, p = u^{n-1}(i,j), sp1 = the 4
-// nearest neighbours of u^{n-1}:
-//   lap2 = 20 c - 8 s1 + 2 s2 + s3          (h^4 times the biharmonic)
-//   u^{n+1} = c + g (c - p) - mu2 lap2                          (lossless: g = 1)
-//           ... + nu1 ((4 p - sp1) - (4 c - s1))                (lossy)
-// with g = (1 - sigma0 k) / (1 + sigma0 k) and mu2, nu1 scaled by
-// 1 / (1 + sigma0 k) (plate_operator.h). Written this way a constant field
-// stays constant exactly, in float too: the integer weights are exact and no
-// rounded coefficient like (2 - 20 mu^2) or 2 / (1 + sigma0 k) has to cancel
-// against others. Such a cancellation error acts as a spurious spring of
-// relative size eps / (omega k)^2: several % at 30 Hz in float with k ~ 4 us.
+// The state is the displacement u^n and the increment d^n = u^n - u^{n-1}
+// (not u^{n-1}): leapfrog in increment form,
+//   d^{n+1} = g d^n - mu2 L(L(u^n))  [+ nu1 L(d^n)]       (lossless: g = 1)
+//   u^{n+1} = u^n + d^{n+1}
+// with L the 5-point Laplacian times h^2, written as a sum of differences
+// (u_east - u_c) + (u_west - u_c) + ...; L(L(.)) is exactly the 13-point
+// biharmonic (20, -8, 2, 1). g = (1 - sigma0 k) / (1 + sigma0 k), mu2 =
+// (kappa k / h^2)^2 and nu1 = 2 sigma1 k / h^2 scaled by 1 / (1 + sigma0 k)
+// (plate_operator.h). Algebraically this is the scheme u+ = 2u - u- - ..., with
+// the same stability bound; in floating point it differs where it matters:
+// - the displacement u enters only through differences of neighbours, which
+//   are exact (Sterbenz) when a large rigid offset dominates, so the force a
+//   drifting free plate feels carries round-off of the size of its strain,
+//   not of its displacement;
+// - the velocity is carried as d, rounded relative to itself, not re-formed
+//   each step as the difference of two large rounded positions.
+// Together they keep a free plate's rigid-body motion from feeding round-off
+// back into its momentum (docs/engine.md, "Rigid-body modes in float").
+// A constant or linear field has L = 0 exactly; no rounded coefficient like
+// (2 - 20 mu^2) or 2 / (1 + sigma0 k) has to cancel against others (such a
+// cancellation acts as a spurious spring of relative size eps / (omega k)^2).
 #pragma once
 
 #include <cstddef>
@@ -27,20 +36,27 @@ struct BulkCoefficients {
     T nu1;  // 2 sigma1 k / h^2 / (1 + sigma0 k) (only the lossy kernel reads it)
 };
 
-// Rows are `stride` elements apart in all three arrays (same layout). Updates
-// rows [j0, j1) and columns [i0, i1); reads two rows/columns beyond them.
-// Loss is a compile-time choice: the lossless kernel never touches q1 or the
-// neighbours of u^{n-1}. Dispatches at run time to the widest SIMD the CPU
-// has (AVX-512, AVX2+FMA, baseline) where the compiler supports it.
+// Rows are `stride` elements apart in all arrays (same layout). Updates rows
+// [j0, j1) and columns [i0, i1) of u in place and writes d^{n+1} there into
+// d_next; reads u two rows/columns beyond them and d (d^n, one beyond for the
+// lossy kernel). `scratch` holds bulk_scratch_rows rows of `stride` elements
+// (the Laplacian rows the sweep reuses). Loss is a compile-time choice: the
+// lossless kernel never reads the neighbours of d. Dispatches at run time to
+// the widest SIMD the CPU has (AVX-512, AVX2+FMA, baseline) where the compiler
+// supports it. `phase`: both parts, or only the prologue (the Laplacian rows
+// next to the block, read before a neighbouring block updates them in place)
+// or only the sweep; bulk_update_threads runs every prologue before any sweep.
+constexpr int bulk_scratch_rows = 5;
+enum class BulkPhase { both, prologue, sweep };
 template <typename T, bool Lossy>
-void bulk_update(const T *u, const T *u_prev, T *u_next, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
-                 const BulkCoefficients<T> &c);
+void bulk_update(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
+                 const BulkCoefficients<T> &c, T *scratch, BulkPhase phase = BulkPhase::both);
 
 // The same, split into contiguous blocks of rows over `threads` OpenMP threads
-// (one fork/join; 1 thread runs inline).
+// (one fork/join; 1 thread runs inline). scratch: threads * bulk_scratch_rows rows.
 template <typename T, bool Lossy>
-void bulk_update_threads(const T *u, const T *u_prev, T *u_next, std::ptrdiff_t stride, int i0, int i1, int j0,
-                         int j1, const BulkCoefficients<T> &c, int threads);
+void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
+                         const BulkCoefficients<T> &c, int threads, T *scratch);
 
 // Which instruction set the dispatcher picked (for the benchmark's report).
 const char *bulk_update_isa();

@@ -213,7 +213,7 @@ std::size_t Simulation::add_finger(const effects::FingerSpec &spec)
                 const effects::MindlinEngine *m = e.get();
                 finger_force_.push_back([m, f] { return m->finger_force_n(f); });
             } else {
-                using T = std::remove_reference_t<decltype(*e->newest_field())>;
+                using T = typename E::value_type;
                 auto ext = std::make_unique<effects::FingerExtension<T>>(*e, spec);
                 const effects::FingerExtension<T> *x = ext.get();
                 e->add_extension(std::move(ext));

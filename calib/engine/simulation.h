@@ -1,4 +1,4 @@
-// The engine's public face for the pipeline (issue #4): one plate, N point
+// The engine's public face for the pipeline: one plate, N point
 // sources with per-step force signals, M receivers, run for a number of steps
 // or seconds, read traces, snapshots and energy. Precision is chosen at run
 // time; the engine underneath is compiled for float and double.

@@ -40,7 +40,6 @@ public:
 
     // Force on the plate in every step since set_drive (N).
     const std::vector<double> &forces() const { return forces_; }
-    double magnet_displacement() const { return z_; }
 
 private:
     ExciterSpec spec_;

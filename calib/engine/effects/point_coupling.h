@@ -33,27 +33,27 @@ public:
             throw std::invalid_argument(std::string(effect) + ": the point lies on held nodes only");
     }
 
-    // W at step n+1 (before this hook's force), n and n-1.
+    // W at step n+1 (before this hook's force), n and n-1: the engine keeps
+    // u^{n+1} and the increments d^{n+1}, d^n, so W^n = W^{n+1} - phi^T d^{n+1}.
     struct Levels {
         double next = 0, now = 0, prev = 0;
     };
-    Levels read(PlateEngine<T> &engine) const
+    Levels read(const PlateEngine<T> &engine) const
     {
-        const T *next = engine.newest_field(), *cur = engine.field_before(), *prev = engine.field_two_before();
-        Levels w;
+        const T *u = engine.newest_field(), *d1 = engine.newest_increment(), *d0 = engine.increment_before();
+        double w = 0, step1 = 0, step0 = 0;
         for (std::size_t n = 0; n < taps_; ++n) {
-            w.next += weight_[n] * double(next[offset_[n]]);
-            w.now += weight_[n] * double(cur[offset_[n]]);
-            w.prev += weight_[n] * double(prev[offset_[n]]);
+            w += weight_[n] * double(u[offset_[n]]);
+            step1 += weight_[n] * double(d1[offset_[n]]);
+            step0 += weight_[n] * double(d0[offset_[n]]);
         }
-        return w;
+        return {w, w - step1, w - step1 - step0};
     }
     // Adds the displacement a force (N) applied during this step causes.
     void apply(PlateEngine<T> &engine, double force_n) const
     {
-        T *next = engine.newest_field();
         for (std::size_t n = 0; n < taps_; ++n)
-            next[offset_[n]] += T(gain_[n] * force_n);
+            engine.add_displacement(offset_[n], T(gain_[n] * force_n));
     }
     double g() const { return g_; }
 

@@ -310,8 +310,6 @@ void MindlinEngine::apply_finger(Finger &f)
     f.force = beta - alpha * w_new;
     for (std::size_t n = 0; n < f.phi.index.size(); ++n)
         next_[f.phi.index[n]] += f.gain[n] * f.force;
-    const double v = (w_new - w) / k;
-    f.energy = 0.5 * m * v * v + 0.5 * s * w_new * w;
 }
 
 double MindlinEngine::energy() const

@@ -99,10 +99,9 @@ public:
     // off the plate, on held nodes only, or for a spring the step cannot take.
     std::size_t add_finger(const FingerSpec &spec);
     double finger_force_n(std::size_t f) const { return fingers_[f].force; }
-    double finger_energy(std::size_t f) const { return fingers_[f].energy; }
 
     void step();
-    double energy() const;  // J, at n+1/2 (the plate's; fingers: finger_energy())
+    double energy() const;  // J, at n+1/2 (the plate's; a finger's own energy is not included)
 
     // Unknown vectors (layout of MindlinOperator) for q^n and q^{n-1}.
     const Eigen::VectorXd &state() const { return cur_; }
@@ -119,7 +118,7 @@ private:
         Tap phi;                  // interpolation weights
         std::vector<double> gain; // phi * k^2 / M: displacement per newton
         double g = 0;             // phi^T gain
-        double force = 0, energy = 0;
+        double force = 0;
     };
     Tap tap_at(double x_m, double y_m, bool scale_by_mass) const;
     void apply_finger(Finger &f);
