@@ -206,27 +206,28 @@ PlateModes lowest_modes(const PlateOperator &op, int count)
     return out;
 }
 
-// Measured on square and 2:1 grids of 1e3 to 2.5e5 unknowns (docs/engine.md):
-// the Cholesky factor of the 13-point operator under Eigen's minimum-degree
-// ordering holds at most ~3.5 n log2(n) nonzeros; 5 n log2(n) is the
-// estimate, at 12 bytes (value + index) each, plus the column-major copy of
-// K and K - sigma M (13 nonzeros a row), the Lanczos basis (ncv vectors)
-// and the shapes and their scratch copies (3 x count vectors).
+// Measured peaks (RSS high-water mark, grids of 1e3 to 2.5e5 unknowns): the
+// Cholesky factor of K - sigma M under Eigen's minimum-degree ordering holds
+// 3.4 to 6.9 n log2(n) nonzeros, and the factorisation and solve peak at 75 to
+// 93 bytes per n log2(n) beyond the vectors; 150 is the estimate. Plus the
+// column-major copies of K and K - sigma M (13 nonzeros a row, 12 bytes
+// each), the Lanczos basis (ncv vectors) and the shapes with their scratch
+// copies (3 x count vectors), 8 bytes per entry.
 double lowest_modes_bytes(std::size_t unknowns, int count)
 {
     const double n = double(std::max<std::size_t>(unknowns, 2));
     const double ncv = std::min(n, std::max(2.0 * count + 1, count + 20.0));
-    const double factor = 5 * n * std::log2(n) * 12;
+    const double factor = 150 * n * std::log2(n);
     const double matrices = 2 * 13 * n * 12;
     const double vectors = (ncv + 3.0 * count + 8) * n * 8;
     return factor + matrices + vectors;
 }
 
 // The assembly keeps the triplets of K and Gm (up to ~170 per node of 16
-// bytes) next to the finished matrices; measured peak ~2.3 kB per node.
+// bytes) next to the finished matrices: measured peak 2.7 to 2.9 kB per node.
 double plate_operator_bytes(std::size_t nodes)
 {
-    return 3000.0 * double(nodes);
+    return 3500.0 * double(nodes);
 }
 
 std::vector<double> mode_field(const PlateOperator &op, const Eigen::Ref<const Eigen::VectorXd> &shape)
