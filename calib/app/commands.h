@@ -12,5 +12,6 @@ void register_verify(CLI::App &app, int &exit_code);
 void register_dispersion(CLI::App &app, int &exit_code);
 void register_simulate(CLI::App &app, int &exit_code);
 void register_study(CLI::App &app, int &exit_code);
+void register_modes(CLI::App &app, int &exit_code);
 
 }  // namespace calib::app

@@ -15,6 +15,7 @@ int main(int argc, char **argv)
     calib::app::register_dispersion(app, exit_code);
     calib::app::register_simulate(app, exit_code);
     calib::app::register_study(app, exit_code);
+    calib::app::register_modes(app, exit_code);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError &e) {
