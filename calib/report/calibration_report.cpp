@@ -176,15 +176,18 @@ std::string layout_svg(const ReportContext &c)
     return s.str();
 }
 
-// |w| at focus f's instant on the node lattice, on a colour scale in um shared
-// by all foci (one colour, one displacement), the threshold as a contour.
-std::string snapshot_img(const ReportContext &c, size_t f, double vmax_m)
+// |w| at each focus's instant on the node lattice, on one colour scale in um
+// for all foci (one colour, one displacement), the threshold as a contour.
+std::vector<std::string> snapshot_imgs(const ReportContext &c)
 {
     const pipeline::Verification &v = *c.verification;
     const auto &pp = c.input->plate->params();
-    FieldMap m{v.grid_nx + 1, v.grid_ny + 1, 0, 0, v.grid_h_m, v.grid_h_m, v.snapshots[f]};
     FieldStyle s;
-    s.vmax = vmax_m;
+    float vmax_m = 0;
+    for (const std::vector<float> &snap : v.snapshots)
+        for (float w : snap)
+            vmax_m = std::max(vmax_m, w);
+    s.vmax = vmax_m > 0 ? vmax_m : 1e-6;
     s.threshold = c.input->calibration.threshold_m;
     s.plate_x_m = pp.size_x_m;
     s.plate_y_m = pp.size_y_m;
@@ -195,8 +198,13 @@ std::string snapshot_img(const ReportContext &c, size_t f, double vmax_m)
     for (size_t e = 0; e < c.exciters.size(); e++)
         s.markers.push_back({c.exciters[e].x_m, c.exciters[e].y_m, std::to_string(e), Marker::Kind::exciter});
     s.width_px = 440;
-    return "<img src='" + png_data_uri(render_field(m, s)) + "' alt='|w| when focus " + std::to_string(v.foci[f].id) +
-           " peaks'>";
+    std::vector<FieldMap> maps;
+    for (const std::vector<float> &snap : v.snapshots)
+        maps.push_back({v.grid_nx + 1, v.grid_ny + 1, 0, 0, v.grid_h_m, v.grid_h_m, snap});
+    std::vector<std::string> imgs = render_field_uris(maps, {s});
+    for (size_t f = 0; f < imgs.size(); f++)
+        imgs[f] = "<img src='" + imgs[f] + "' alt='|w| when focus " + std::to_string(v.foci[f].id) + " peaks'>";
+    return imgs;
 }
 
 // Min/max per bin: a long trace drawn with <= 2 * bins points, peaks kept.
@@ -343,12 +351,9 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     h << "</table>";
     if (c.mode == "table") {
         h << "<h2>Wave field at the focus instant</h2><div class='grid'>";
-        float vmax_m = 0;
-        for (const std::vector<float> &snap : v.snapshots)
-            for (float w : snap)
-                vmax_m = std::max(vmax_m, w);
+        const std::vector<std::string> snapshots = snapshot_imgs(c);
         for (size_t f = 0; f < v.foci.size(); f++)
-            h << "<figure class='cell'>" << snapshot_img(c, f, vmax_m > 0 ? vmax_m : 1e-6) << "<figcaption>|w| when focus "
+            h << "<figure class='cell'>" << snapshots[f] << "<figcaption>|w| when focus "
               << v.foci[f].id << " peaks (" << num(v.foci[f].peak_time_s * 1e3)
               << " ms); one colour scale for all foci, white line: the threshold</figcaption></figure>";
         h << "</div>";

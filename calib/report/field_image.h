@@ -71,6 +71,11 @@ struct FieldLayout {
 FieldLayout field_layout(const FieldMap &field, const FieldStyle &style);
 Image render_field(const FieldMap &field, const FieldStyle &style);   // with colour bar and ticks in `unit`
 
+// PNG data URIs of several field images, rendered on all cores (OpenMP): one
+// style for all, or one per field. Throws as render_field, or
+// std::invalid_argument if the number of styles is neither 1 nor fields.size().
+std::vector<std::string> render_field_uris(const std::vector<FieldMap> &fields, const std::vector<FieldStyle> &styles);
+
 // A self-contained HTML fragment (no external files, no network): the frames as PNG data URIs with a
 // slider and a play button (a few lines of inline JS), sharing one colour scale, a time label per frame.
 // Throws std::invalid_argument for no frames, frames.size() != times_s.size(), frames on different

@@ -1,6 +1,7 @@
-// The field over time as an HTML fragment: one <img> per frame (PNG data
-// URIs), all but the shown one hidden, and a slider and a play button wired by
-// a few lines of inline script. Without script the first frame still shows.
+// Several field images at once, and the field over time as an HTML fragment:
+// one <img> per frame (PNG data URIs), all but the shown one hidden, and a
+// slider and a play button wired by a few lines of inline script. Without
+// script the first frame still shows.
 #include "report/canvas.h"
 #include "report/field_image.h"
 
@@ -43,6 +44,27 @@ std::vector<std::string> time_labels(const std::vector<double> &t)
 
 }  // namespace
 
+std::vector<std::string> render_field_uris(const std::vector<FieldMap> &fields, const std::vector<FieldStyle> &styles)
+{
+    if (styles.size() != 1 && styles.size() != fields.size())
+        throw std::invalid_argument("field images: " + std::to_string(fields.size()) + " fields but " +
+                                    std::to_string(styles.size()) + " styles");
+    std::vector<std::string> uris(fields.size());
+    std::exception_ptr error;
+#pragma omp parallel for schedule(dynamic)
+    for (std::size_t k = 0; k < fields.size(); ++k) {
+        try {
+            uris[k] = png_data_uri(render_field(fields[k], styles[styles.size() == 1 ? 0 : k]));
+        } catch (...) {
+#pragma omp critical
+            error = std::current_exception();
+        }
+    }
+    if (error)
+        std::rethrow_exception(error);
+    return uris;
+}
+
 std::string field_movie_html(const std::vector<FieldMap> &frames, const std::vector<double> &times_s,
                              const FieldStyle &style, const std::string &element_id)
 {
@@ -75,19 +97,7 @@ std::string field_movie_html(const std::vector<FieldMap> &frames, const std::vec
     field_layout(frames[0], shared);  // refuses a bad style or lattice before any work
 
     const std::vector<std::string> labels = time_labels(times_s);
-    std::vector<std::string> uris(frames.size());
-    std::exception_ptr error;
-#pragma omp parallel for schedule(dynamic)
-    for (std::size_t k = 0; k < frames.size(); ++k) {
-        try {
-            uris[k] = png_data_uri(render_field(frames[k], shared));
-        } catch (...) {
-#pragma omp critical
-            error = std::current_exception();
-        }
-    }
-    if (error)
-        std::rethrow_exception(error);
+    const std::vector<std::string> uris = render_field_uris(frames, {shared});
 
     const std::string alt = canvas::xml_escape(style.title.empty() ? "field" : style.title);
     std::string h = "<div class=\"field-movie\" id=\"" + element_id + "\">\n";

@@ -217,6 +217,8 @@ TEST(FieldImage, BadInputIsRefused)
     st = s;
     st.markers = {{NAN, 0.1, "x", Marker::Kind::point}};
     refused(ramp(), st);
+    EXPECT_THROW(render_field_uris({ramp(), ramp()}, {s, s, s}), std::invalid_argument);
+    EXPECT_EQ(render_field_uris({ramp(), ramp()}, {s}).size(), 2u);
     // The message names what is wrong.
     f = ramp();
     f.value.resize(10);
