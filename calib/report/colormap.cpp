@@ -1,6 +1,7 @@
 #include "report/colormap.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace calib::report {
@@ -82,9 +83,14 @@ const double viridis_table[256][3] = {
 
 Color viridis_entry(int i)
 {
-    const double *c = viridis_table[std::clamp(i, 0, 255)];
-    auto byte = [](double v) { return static_cast<std::uint8_t>(std::lround(255.0 * v)); };
-    return {byte(c[0]), byte(c[1]), byte(c[2])};
+    static const std::array<Color, 256> bytes = [] {  // 8-bit sRGB, rounded as matplotlib's to_hex
+        std::array<Color, 256> out;
+        auto byte = [](double v) { return static_cast<std::uint8_t>(std::lround(255.0 * v)); };
+        for (std::size_t k = 0; k < out.size(); ++k)
+            out[k] = {byte(viridis_table[k][0]), byte(viridis_table[k][1]), byte(viridis_table[k][2])};
+        return out;
+    }();
+    return bytes[static_cast<std::size_t>(std::clamp(i, 0, 255))];
 }
 
 Color viridis(double t)
