@@ -43,7 +43,10 @@ struct SvgText {
 };
 const cairo_user_data_key_t svg_text_key{};
 
-std::vector<SvgText> *svg_texts(cairo_t *cr) { return static_cast<std::vector<SvgText> *>(cairo_get_user_data(cr, &svg_text_key)); }
+std::vector<SvgText> *svg_texts(cairo_t *cr)
+{
+    return static_cast<std::vector<SvgText> *>(cairo_get_user_data(cr, &svg_text_key));
+}
 
 std::string num(double v)
 {
