@@ -2,6 +2,7 @@
 
 #include "io/atomic_file.h"
 #include "physics/dispersion.h"
+#include "report/field_image.h"
 #include "report/plot.h"
 
 #include <toml++/toml.h>
@@ -106,22 +107,6 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
 
 namespace {
 
-std::string base64(const std::vector<uint8_t> &in)
-{
-    static const char *t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    std::string out;
-    out.reserve((in.size() + 2) / 3 * 4);
-    for (size_t i = 0; i < in.size(); i += 3) {
-        const uint32_t v = (uint32_t(in[i]) << 16) | (i + 1 < in.size() ? uint32_t(in[i + 1]) << 8 : 0) |
-                           (i + 2 < in.size() ? uint32_t(in[i + 2]) : 0);
-        out += t[(v >> 18) & 63];
-        out += t[(v >> 12) & 63];
-        out += i + 1 < in.size() ? t[(v >> 6) & 63] : '=';
-        out += i + 2 < in.size() ? t[v & 63] : '=';
-    }
-    return out;
-}
-
 std::string esc(const std::string &s)
 {
     std::string o;
@@ -145,17 +130,6 @@ std::string num(double v, int prec = 3)
     return os.str();
 }
 
-// Perceptually ordered map (dark blue -> teal -> yellow), t in [0, 1].
-Color colormap(double t)
-{
-    static const double stops[5][3] = {{13, 8, 135}, {84, 2, 163}, {33, 145, 140}, {144, 215, 67}, {253, 231, 37}};
-    t = std::clamp(t, 0.0, 1.0) * 4;
-    const int i = std::min(3, static_cast<int>(t));
-    const double u = t - i;
-    auto ch = [&](int k) { return static_cast<uint8_t>(stops[i][k] + u * (stops[i + 1][k] - stops[i][k])); };
-    return {ch(0), ch(1), ch(2)};
-}
-
 // Plate coordinates -> SVG pixels (y up on the plate, down in SVG).
 struct View {
     double scale, lx, ly, pad = 20;
@@ -163,7 +137,7 @@ struct View {
     double Y(double y) const { return pad + (ly - y) * scale; }
 };
 
-std::string layout_svg(const ReportContext &c, const std::string &underlay_png_b64 = "")
+std::string layout_svg(const ReportContext &c)
 {
     const auto &pp = c.input->plate->params();
     View v{420.0 / std::max(pp.size_x_m, pp.size_y_m), pp.size_x_m, pp.size_y_m};
@@ -171,17 +145,12 @@ std::string layout_svg(const ReportContext &c, const std::string &underlay_png_b
     std::ostringstream s;
     s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << w << "' height='" << h << "' viewBox='0 0 " << w << " "
       << h << "' font-family='sans-serif' font-size='11'>";
-    if (!underlay_png_b64.empty())
-        s << "<image x='" << v.X(0) << "' y='" << v.Y(pp.size_y_m) << "' width='" << pp.size_x_m * v.scale
-          << "' height='" << pp.size_y_m * v.scale << "' preserveAspectRatio='none' href='data:image/png;base64,"
-          << underlay_png_b64 << "'/>";
     s << "<rect x='" << v.X(0) << "' y='" << v.Y(pp.size_y_m) << "' width='" << pp.size_x_m * v.scale << "' height='"
-      << pp.size_y_m * v.scale << "' fill='" << (underlay_png_b64.empty() ? "#eef3f8" : "none")
-      << "' stroke='#333' stroke-width='2'/>";
+      << pp.size_y_m * v.scale << "' fill='#eef3f8' stroke='#333' stroke-width='2'/>";
     const pipeline::Rect &a = c.input->active.area;
     s << "<rect x='" << v.X(a.x0_m) << "' y='" << v.Y(a.y1_m) << "' width='" << (a.x1_m - a.x0_m) * v.scale
       << "' height='" << (a.y1_m - a.y0_m) * v.scale << "' fill='none' stroke='#2a7' stroke-dasharray='6 4'/>";
-    if (underlay_png_b64.empty() && c.result) {
+    if (c.result) {
         for (Point p : c.result->placement.sites)
             s << "<circle cx='" << v.X(p.x_m) << "' cy='" << v.Y(p.y_m) << "' r='1.2' fill='#99a'/>";
         for (size_t i : c.result->placement.regular) {
@@ -195,38 +164,47 @@ std::string layout_svg(const ReportContext &c, const std::string &underlay_png_b
         s << "<circle cx='" << v.X(f.at.x_m) << "' cy='" << v.Y(f.at.y_m) << "' r='" << spot * v.scale
           << "' fill='none' stroke='#e55' stroke-dasharray='3 3'/>";
         s << "<circle cx='" << v.X(f.at.x_m) << "' cy='" << v.Y(f.at.y_m) << "' r='3' fill='#e55'/>";
-        s << "<text x='" << v.X(f.at.x_m) + 5 << "' y='" << v.Y(f.at.y_m) - 5 << "' fill='"
-          << (underlay_png_b64.empty() ? "#a22" : "#fff") << "'>" << f.id << "</text>";
+        s << "<text x='" << v.X(f.at.x_m) + 5 << "' y='" << v.Y(f.at.y_m) - 5 << "' fill='#a22'>" << f.id << "</text>";
     }
     for (size_t e = 0; e < c.exciters.size(); e++) {
         const Point p = c.exciters[e];
         s << "<rect x='" << v.X(p.x_m) - 5 << "' y='" << v.Y(p.y_m) - 5
           << "' width='10' height='10' fill='#d33' stroke='#000'/><text x='" << v.X(p.x_m) + 7 << "' y='"
-          << v.Y(p.y_m) + 4 << "' fill='" << (underlay_png_b64.empty() ? "#000" : "#fff") << "'>" << e << "</text>";
+          << v.Y(p.y_m) + 4 << "' fill='#000'>" << e << "</text>";
     }
     s << "</svg>";
     return s.str();
 }
 
-std::string snapshot_svg(const ReportContext &c, size_t f)
+// |w| at each focus's instant on the node lattice, on one colour scale in um
+// for all foci (one colour, one displacement), the threshold as a contour.
+std::vector<std::string> snapshot_imgs(const ReportContext &c)
 {
     const pipeline::Verification &v = *c.verification;
-    const std::vector<float> &field = v.snapshots[f];
-    const int w = v.grid_nx + 1, h = v.grid_ny + 1;
-    const double peak = std::max(1e-30, static_cast<double>(*std::max_element(field.begin(), field.end())));
-    Image img;
-    img.width = w;
-    img.height = h;
-    img.rgb.resize(static_cast<size_t>(w) * h * 3);
-    for (int j = 0; j < h; j++)
-        for (int i = 0; i < w; i++) {
-            const Color col = colormap(field[static_cast<size_t>(j) * w + i] / peak);
-            uint8_t *px = &img.rgb[(static_cast<size_t>(h - 1 - j) * w + i) * 3];  // top row = y max
-            px[0] = col.r;
-            px[1] = col.g;
-            px[2] = col.b;
-        }
-    return layout_svg(c, base64(encode_png(img)));
+    const auto &pp = c.input->plate->params();
+    FieldStyle s;
+    float vmax_m = 0;
+    for (const std::vector<float> &snap : v.snapshots)
+        for (float w : snap)
+            vmax_m = std::max(vmax_m, w);
+    s.vmax = vmax_m > 0 ? vmax_m : 1e-6;
+    s.threshold = c.input->calibration.threshold_m;
+    s.plate_x_m = pp.size_x_m;
+    s.plate_y_m = pp.size_y_m;
+    const pipeline::Rect &a = c.input->active.area;
+    s.active_area = std::array<double, 4>{a.x0_m, a.y0_m, a.x1_m, a.y1_m};
+    for (const pipeline::FocusPoint &p : c.input->foci.points)
+        s.markers.push_back({p.at.x_m, p.at.y_m, std::to_string(p.id), Marker::Kind::focus});
+    for (size_t e = 0; e < c.exciters.size(); e++)
+        s.markers.push_back({c.exciters[e].x_m, c.exciters[e].y_m, std::to_string(e), Marker::Kind::exciter});
+    s.width_px = 440;
+    std::vector<FieldMap> maps;
+    for (const std::vector<float> &snap : v.snapshots)
+        maps.push_back({v.grid_nx + 1, v.grid_ny + 1, 0, 0, v.grid_h_m, v.grid_h_m, snap});
+    std::vector<std::string> imgs = render_field_uris(maps, {s});
+    for (size_t f = 0; f < imgs.size(); f++)
+        imgs[f] = "<img src='" + imgs[f] + "' alt='|w| when focus " + std::to_string(v.foci[f].id) + " peaks'>";
+    return imgs;
 }
 
 // Min/max per bin: a long trace drawn with <= 2 * bins points, peaks kept.
@@ -373,9 +351,11 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     h << "</table>";
     if (c.mode == "table") {
         h << "<h2>Wave field at the focus instant</h2><div class='grid'>";
+        const std::vector<std::string> snapshots = snapshot_imgs(c);
         for (size_t f = 0; f < v.foci.size(); f++)
-            h << "<figure class='cell'>" << snapshot_svg(c, f) << "<figcaption>|w| when focus " << v.foci[f].id
-              << " peaks (" << num(v.foci[f].peak_time_s * 1e3) << " ms), scaled to its maximum</figcaption></figure>";
+            h << "<figure class='cell'>" << snapshots[f] << "<figcaption>|w| when focus "
+              << v.foci[f].id << " peaks (" << num(v.foci[f].peak_time_s * 1e3)
+              << " ms); one colour scale for all foci, white line: the threshold</figcaption></figure>";
         h << "</div>";
     }
     h << "<h2>Displacement at the foci</h2><div class='grid'>";

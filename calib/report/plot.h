@@ -1,7 +1,7 @@
 // Small line-plot writer for reports: linear or log axes, legend, title, to
-// SVG (vector, for docs) or PNG (stb_image_write, own anti-aliased raster and
-// stb_easy_font text). Used by `calibgen dispersion --plot` and the accuracy
-// and trace reports.
+// SVG (vector, for docs and inline in HTML reports) or PNG, both drawn by
+// cairo (anti-aliased, real fonts through its toy text API). Used by
+// `calibgen dispersion --plot`, the accuracy study and the calibration report.
 //
 //   report::Plot p;
 //   p.title = "A0 phase velocity, 2 mm";
@@ -11,6 +11,8 @@
 //   p.add({"Kirchhoff", f, ck, report::LineStyle::dashed});
 //   report::write_plot(p, "out.svg");   // or .png
 #pragma once
+#include "report/image.h"
+
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -22,11 +24,6 @@ namespace calib::report {
 enum class AxisScale { linear, log };
 enum class LineStyle { solid, dashed, dotted, none };  // none: markers only
 enum class LegendPosition { top_right, top_left, bottom_right, bottom_left, hidden };
-
-struct Color {
-    std::uint8_t r = 0, g = 0, b = 0;
-    friend bool operator==(const Color &, const Color &) = default;
-};
 
 // The i-th colour of the default palette (Tableau 10), cycling.
 Color palette(std::size_t i);
@@ -68,21 +65,17 @@ struct Plot {
     }
 };
 
-// An 8-bit RGB raster, row-major, top row first.
-struct Image {
-    int width = 0, height = 0;
-    std::vector<std::uint8_t> rgb;
-};
-
 // All throw std::invalid_argument for an unusable plot (series x/y length
 // mismatch, no finite data on an axis, non-positive size, log axis with
 // min <= 0) and std::runtime_error for I/O failures. The writers go through a
-// temporary file and rename, so a failure leaves no partial file.
+// temporary file and rename, so a failure leaves no partial file. The SVG
+// carries the title, axis labels and series names in <title> and <desc>
+// (cairo writes the visible text as glyph outlines) and ids unique to its
+// content, so several plots can be inlined in one HTML page.
 std::string render_svg(const Plot &plot);
 Image render_image(const Plot &plot);
 void write_svg(const Plot &plot, const std::string &path);
-// PNG file bytes of an image (for files and for inline data URIs).
-std::vector<std::uint8_t> encode_png(const Image &img);
+// encode_png (PNG file bytes of an Image) is in report/image.h.
 void write_png(const Plot &plot, const std::string &path);
 // By extension: .svg or .png (case-insensitive); anything else is
 // std::invalid_argument naming the path.

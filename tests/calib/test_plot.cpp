@@ -1,18 +1,20 @@
-// The plot writer: SVG is well-formed XML with the plot's text escaped, PNG
-// decodes (stb_image) to the asked size, lines land where the axis transform
-// puts them (a power law is straight on log-log axes), and failures leave no
-// file behind.
+// The plot writer (cairo): lines land where the drawn frame and the axis
+// definition put them (centroids of anti-aliased pixels, to a quarter pixel),
+// a NaN breaks a line, a power law is straight on log-log axes, the SVG is
+// well-formed XML carrying its words as <text> with ids that do not collide
+// between plots, the PNG decodes (stb_image, an independent decoder) to the
+// asked size, and failures leave no file behind.
 #include "report/plot.h"
+
+#include "xml_check.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <map>
+#include <functional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -28,94 +30,9 @@
 #pragma GCC diagnostic pop
 
 using namespace calib::report;
+using xml_check::count;
 
 namespace {
-
-// Minimal XML well-formedness: balanced and properly nested elements, quoted
-// attributes, only the five predefined entities, one root element.
-bool well_formed(const std::string &s, std::string &why)
-{
-    std::vector<std::string> stack;
-    std::size_t i = 0, roots = 0;
-    auto entity_ok = [&](std::size_t at) {
-        for (const char *e : {"&amp;", "&lt;", "&gt;", "&quot;", "&apos;"})
-            if (s.compare(at, std::strlen(e), e) == 0)
-                return true;
-        return false;
-    };
-    while (i < s.size()) {
-        if (s[i] == '&') {
-            if (!entity_ok(i))
-                return why = "bad entity at " + std::to_string(i), false;
-            ++i;
-            continue;
-        }
-        if (s[i] != '<') {
-            if (s[i] == '>')
-                return why = "stray > at " + std::to_string(i), false;
-            ++i;
-            continue;
-        }
-        if (s.compare(i, 5, "<?xml") == 0) {
-            i = s.find("?>", i);
-            if (i == std::string::npos)
-                return why = "unterminated prolog", false;
-            i += 2;
-            continue;
-        }
-        const std::size_t end = s.find('>', i);
-        if (end == std::string::npos)
-            return why = "unterminated tag", false;
-        std::string tag = s.substr(i + 1, end - i - 1);
-        i = end + 1;
-        if (!tag.empty() && tag[0] == '/') {
-            if (stack.empty() || stack.back() != tag.substr(1))
-                return why = "mismatched </" + tag.substr(1) + ">", false;
-            stack.pop_back();
-            continue;
-        }
-        const bool self_closing = !tag.empty() && tag.back() == '/';
-        if (self_closing)
-            tag.pop_back();
-        const std::string name = tag.substr(0, tag.find_first_of(" \t\n"));
-        if (name.empty())
-            return why = "empty tag name", false;
-        // Attributes: name="value" pairs, values without '<'.
-        std::size_t p = name.size();
-        while (p < tag.size()) {
-            while (p < tag.size() && std::isspace(static_cast<unsigned char>(tag[p])))
-                ++p;
-            if (p >= tag.size())
-                break;
-            const std::size_t eq = tag.find('=', p);
-            if (eq == std::string::npos || eq + 1 >= tag.size() || tag[eq + 1] != '"')
-                return why = "unquoted attribute in <" + name + ">", false;
-            const std::size_t close = tag.find('"', eq + 2);
-            if (close == std::string::npos)
-                return why = "unterminated attribute in <" + name + ">", false;
-            if (tag.substr(eq + 2, close - eq - 2).find('<') != std::string::npos)
-                return why = "< in attribute", false;
-            p = close + 1;
-        }
-        if (stack.empty())
-            ++roots;
-        if (!self_closing)
-            stack.push_back(name);
-    }
-    if (!stack.empty())
-        return why = "unclosed <" + stack.back() + ">", false;
-    if (roots != 1)
-        return why = "expected one root element", false;
-    return true;
-}
-
-std::size_t count(const std::string &s, const std::string &needle)
-{
-    std::size_t n = 0;
-    for (std::size_t at = s.find(needle); at != std::string::npos; at = s.find(needle, at + 1))
-        ++n;
-    return n;
-}
 
 Plot sample_plot()
 {
@@ -144,52 +61,114 @@ std::filesystem::path temp_dir()
     return d;
 }
 
-}  // namespace
+// The plot frame as drawn: the first and last rows and columns that are
+// mostly the frame's grey. Pixel column c covers [c, c + 1).
+struct Frame {
+    int c0 = -1, c1 = -1, r0 = -1, r1 = -1;
+};
 
-TEST(Plot, SvgIsWellFormedAndEscapesText)
+Frame find_frame(const Image &img)
 {
-    const std::string svg = render_svg(sample_plot());
-    std::string why;
-    EXPECT_TRUE(well_formed(svg, why)) << why;
-    EXPECT_NE(svg.find("A &lt;title&gt; &amp; &quot;quotes&quot;"), std::string::npos);
-    EXPECT_NE(svg.find("frequency (Hz)"), std::string::npos);
-    EXPECT_NE(svg.find("stroke-dasharray"), std::string::npos);
-    // The NaN splits the dashed series in two polylines: 3 data polylines +
-    // 2 legend samples (plus grid and frame lines, which are grey).
-    EXPECT_EQ(count(svg, "stroke=\"#1f77b4\""), 2u);  // palette(0): data + legend
-    EXPECT_EQ(count(svg, "stroke=\"#ff7f0e\""), 3u);  // palette(1): two runs + legend
+    const Color grey{90, 90, 90};
+    Frame f;
+    for (int y = 0; y < img.height; ++y) {
+        int n = 0;
+        for (int x = 0; x < img.width; ++x)
+            n += img.at(x, y) == grey;
+        if (n > img.width / 2) {
+            if (f.r0 < 0)
+                f.r0 = y;
+            f.r1 = y;
+        }
+    }
+    for (int x = 0; x < img.width; ++x) {
+        int n = 0;
+        for (int y = 0; y < img.height; ++y)
+            n += img.at(x, y) == grey;
+        if (n > img.height / 2) {
+            if (f.c0 < 0)
+                f.c0 = x;
+            f.c1 = x;
+        }
+    }
+    return f;
 }
 
-TEST(Plot, PngDecodesToTheAskedSizeWithTheSeriesColours)
+// Coverage-weighted centroid (pixel centres at +0.5) of the pixels `weight` picks.
+double centroid(const Image &img, bool along_x, const std::function<double(Color)> &weight)
 {
-    Plot p = sample_plot();
-    p.width_px = 640;
-    p.height_px = 400;
-    const std::string path = (temp_dir() / "sample.png").string();
-    write_png(p, path);
-    int w = 0, h = 0, n = 0;
-    unsigned char *data = stbi_load(path.c_str(), &w, &h, &n, 3);
-    ASSERT_NE(data, nullptr) << stbi_failure_reason();
-    EXPECT_EQ(w, 640);
-    EXPECT_EQ(h, 400);
-    std::size_t non_white = 0, blue = 0, orange = 0;
-    for (int i = 0; i < w * h; ++i) {
-        const unsigned char *px = data + 3 * i;
-        non_white += !(px[0] == 255 && px[1] == 255 && px[2] == 255);
-        blue += px[0] == 31 && px[1] == 119 && px[2] == 180;
-        orange += px[0] == 255 && px[1] == 127 && px[2] == 14;
+    double sw = 0, s = 0;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            const double w = weight(img.at(x, y));
+            if (w > 0) {
+                sw += w;
+                s += w * ((along_x ? x : y) + 0.5);
+            }
+        }
+    return sw > 0 ? s / sw : NAN;
+}
+
+}  // namespace
+
+TEST(Plot, LinesLandWhereTheFrameAndAxesPutThem)
+{
+    // A horizontal line at y = 3 and a vertical one at x = 7 on [0, 10] x
+    // [0, 10] (neither on a grid line): the frame edges are x = 0 and 10.
+    Plot p;
+    p.x.min = 0.0;
+    p.x.max = 10.0;
+    p.y.min = 0.0;
+    p.y.max = 10.0;
+    p.legend = LegendPosition::hidden;
+    p.add({"", {0, 10}, {3, 3}, LineStyle::solid, Color{0, 200, 0}});
+    p.add({"", {7, 7}, {0, 10}, LineStyle::solid, Color{0, 0, 255}});
+    const Image img = render_image(p);
+    const Frame f = find_frame(img);
+    ASSERT_GE(f.c0, 0);
+    ASSERT_GT(f.c1 - f.c0, 300);
+    ASSERT_GT(f.r1 - f.r0, 200);
+    // Frame lines are 1 px wide and centred on the plot area's edges.
+    const double left = f.c0 + 0.5, right = f.c1 + 0.5, top = f.r0 + 0.5, bottom = f.r1 + 0.5;
+    const double want_y = bottom - 0.3 * (bottom - top), want_x = left + 0.7 * (right - left);
+    const double got_y = centroid(img, false, [](Color c) { return c.g > c.r + 20 && c.g > c.b + 20 ? (c.g - c.r) / 200.0 : 0; });
+    const double got_x = centroid(img, true, [](Color c) { return c.b > c.r + 20 && c.b > c.g + 20 ? (c.b - c.r) / 255.0 : 0; });
+    EXPECT_NEAR(got_y, want_y, 0.25);
+    EXPECT_NEAR(got_x, want_x, 0.25);
+}
+
+TEST(Plot, NanBreaksTheLine)
+{
+    Plot p;
+    p.x.min = 0.0;
+    p.x.max = 10.0;
+    p.y.min = 0.0;
+    p.y.max = 10.0;
+    p.legend = LegendPosition::hidden;
+    std::vector<double> x, y;
+    for (int i = 0; i <= 10; ++i) {
+        x.push_back(i);
+        y.push_back(i == 5 ? NAN : 5.0);
     }
-    stbi_image_free(data);
-    EXPECT_GT(non_white, 5000u);
-    EXPECT_GT(blue, 400u);    // a 2 px line across ~560 px
-    EXPECT_GT(orange, 200u);  // dashed: about half of that
-    std::filesystem::remove_all(temp_dir());
+    p.add({"", x, y, LineStyle::solid, Color{255, 0, 0}});
+    const Image img = render_image(p);
+    const Frame f = find_frame(img);
+    auto red_in_column = [&](double xv) {
+        const int c = static_cast<int>(f.c0 + 0.5 + xv / 10 * (f.c1 - f.c0));
+        for (int r = f.r0 + 2; r < f.r1 - 1; ++r)
+            if (img.at(c, r).r > 200 && img.at(c, r).g < 100)
+                return true;
+        return false;
+    };
+    EXPECT_TRUE(red_in_column(2));
+    EXPECT_TRUE(red_in_column(8));
+    EXPECT_FALSE(red_in_column(5));  // between the points at 4 and 6
 }
 
 TEST(Plot, PowerLawIsStraightOnLogLogAxes)
 {
-    // y = x^2 over four decades: every fully covered red pixel lies on one
-    // straight line in image coordinates, and the line is not flat.
+    // y = x^2 over four decades: the red pixels lie on one straight line in
+    // image coordinates, and the line is not flat.
     Plot p;
     p.x = {"x", AxisScale::log};
     p.y = {"y", AxisScale::log};
@@ -205,8 +184,8 @@ TEST(Plot, PowerLawIsStraightOnLogLogAxes)
     std::size_t n = 0;
     for (int yy = 0; yy < img.height; ++yy)
         for (int xx = 0; xx < img.width; ++xx) {
-            const std::uint8_t *px = &img.rgb[(static_cast<std::size_t>(yy) * img.width + xx) * 3];
-            if (px[0] == 255 && px[1] == 0 && px[2] == 0) {
+            const Color c = img.at(xx, yy);
+            if (c.r > 200 && c.g < 80 && c.b < 80) {
                 sx += xx; sy += yy; sxx += double(xx) * xx; sxy += double(xx) * yy; syy += double(yy) * yy;
                 ++n;
             }
@@ -214,33 +193,109 @@ TEST(Plot, PowerLawIsStraightOnLogLogAxes)
     ASSERT_GT(n, 300u);
     const double mx = sx / n, my = sy / n;
     const double vx = sxx / n - mx * mx, vy = syy / n - my * my, cxy = sxy / n - mx * my;
-    const double corr = cxy / std::sqrt(vx * vy);
-    EXPECT_LT(corr, -0.9999);  // y grows upwards: negative in image rows
+    EXPECT_LT(cxy / std::sqrt(vx * vy), -0.9999);  // y grows upwards: negative in image rows
 }
 
-TEST(Plot, LinearAxisPutsAConstantOnOneRow)
+TEST(Plot, SvgIsWellFormedAndCarriesItsWords)
 {
-    Plot p;
-    p.y.min = 0.0;
-    p.y.max = 10.0;
+    const std::string svg = render_svg(sample_plot());
+    std::string why;
+    EXPECT_TRUE(xml_check::well_formed(svg, why)) << why;
+    // Escaped once, in <title> and in the drawn title.
+    EXPECT_EQ(count(svg, "A &lt;title&gt; &amp; &quot;quotes&quot;"), 2u);
+    for (const char *word : {">frequency (Hz)</text>", ">velocity (m/s)</text>", ">sqrt</text>", ">line with gap</text>",
+                             ">1000</text>"})
+        EXPECT_EQ(count(svg, word), 1u) << word;
+    EXPECT_EQ(count(svg, "<symbol"), 0u);  // no glyph outlines
+}
+
+namespace {
+
+// Every value that follows `open` up to the next character of `stop`.
+std::vector<std::string> values_after(const std::string &s, const std::string &open, const char *stop)
+{
+    std::vector<std::string> out;
+    for (std::size_t at = s.find(open); at != std::string::npos; at = s.find(open, at + 1)) {
+        const std::size_t from = at + open.size();
+        out.push_back(s.substr(from, s.find_first_of(stop, from) - from));
+    }
+    return out;
+}
+
+}  // namespace
+
+TEST(Plot, SvgIdsResolveAndDifferBetweenPlots)
+{
+    Plot clipped = sample_plot();
+    clipped.y.max = 25.0;  // sqrt(x) leaves the plot area: the SVG needs a clip path
+    const std::string a = render_svg(clipped);
+    Plot other = clipped;
+    other.title = "another";
+    const std::string b = render_svg(other);
+    const std::vector<std::string> va = values_after(a, " id=\"", "\""), vb = values_after(b, " id=\"", "\"");
+    const std::set<std::string> ia(va.begin(), va.end()), ib(vb.begin(), vb.end());
+    ASSERT_FALSE(ia.empty());
+    EXPECT_EQ(ia.size(), va.size());  // unique within the document
+    for (const std::string &id : ia)
+        EXPECT_EQ(ib.count(id), 0u) << id;
+    std::vector<std::string> refs = values_after(a, "href=\"#", "\"");
+    for (const std::string &r : values_after(a, "url(#", ")"))
+        refs.push_back(r);
+    EXPECT_GT(refs.size(), 0u);
+    for (const std::string &r : refs)
+        EXPECT_EQ(ia.count(r), 1u) << r;
+}
+
+TEST(Plot, PngDecodesToTheAskedSizeWithTheSeriesColours)
+{
+    Plot p = sample_plot();
+    p.width_px = 640;
+    p.height_px = 400;
+    const std::string path = (temp_dir() / "sample.png").string();
+    write_png(p, path);
+    int w = 0, h = 0, n = 0;
+    unsigned char *data = stbi_load(path.c_str(), &w, &h, &n, 3);
+    ASSERT_NE(data, nullptr) << stbi_failure_reason();
+    EXPECT_EQ(w, 640);
+    EXPECT_EQ(h, 400);
+    auto near = [](const unsigned char *px, int r, int g, int b) {
+        return std::abs(px[0] - r) <= 6 && std::abs(px[1] - g) <= 6 && std::abs(px[2] - b) <= 6;
+    };
+    std::size_t blue = 0, orange = 0;
+    for (int i = 0; i < w * h; ++i) {
+        blue += near(data + 3 * i, 31, 119, 180);
+        orange += near(data + 3 * i, 255, 127, 14);
+    }
+    stbi_image_free(data);
+    EXPECT_GT(blue, 400u);    // a 2 px line across ~550 px
+    EXPECT_GT(orange, 200u);  // dashed: about half of that
+    std::filesystem::remove_all(temp_dir());
+}
+
+TEST(Plot, TextIsDrawnAndBadTextDoesNotBlankThePlot)
+{
+    auto dark_rows = [](const Image &img, int y0, int y1) {
+        std::size_t n = 0;
+        for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < img.width; ++x)
+                n += img.at(x, y).r < 100 && img.at(x, y).g < 100 && img.at(x, y).b < 100;
+        return n;
+    };
+    Plot p = sample_plot();
     p.legend = LegendPosition::hidden;
-    p.add({"", {0, 1}, {5, 5}, LineStyle::solid, Color{0, 200, 0}});
+    EXPECT_GT(dark_rows(render_image(p), 0, 30), 100u);  // the title's glyphs
+    p.title.clear();
+    EXPECT_EQ(dark_rows(render_image(p), 0, 8), 0u);  // above the top tick label
+    // Invalid UTF-8 would put cairo in an error state and stop all drawing.
+    p.title = "bad \xff\xfe utf-8 \xe2\x82";
+    p.x.label = "ok \xc3\xa9";
     const Image img = render_image(p);
-    int row_min = img.height, row_max = -1;
-    for (int yy = 0; yy < img.height; ++yy)
-        for (int xx = 0; xx < img.width; ++xx) {
-            const std::uint8_t *px = &img.rgb[(static_cast<std::size_t>(yy) * img.width + xx) * 3];
-            if (px[0] == 0 && px[1] == 200 && px[2] == 0) {
-                row_min = std::min(row_min, yy);
-                row_max = std::max(row_max, yy);
-            }
-        }
-    ASSERT_GE(row_max, 0);
-    EXPECT_LE(row_max - row_min, 2);
-    // y = 5 of [0, 10] is the middle of the plot area, which sits between the
-    // title-less top margin and the tick labels: well inside the image middle third.
-    EXPECT_GT(row_min, img.height / 3);
-    EXPECT_LT(row_max, 2 * img.height / 3);
+    std::size_t blue = 0;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x)
+            blue += img.at(x, y) == Color{31, 119, 180};
+    EXPECT_GT(blue, 300u);
+    EXPECT_GT(dark_rows(img, 0, 30), 100u);
 }
 
 TEST(Plot, ErrorsLeaveNoFile)
@@ -255,6 +310,8 @@ TEST(Plot, ErrorsLeaveNoFile)
     Plot bad = p;
     bad.series[0].y.pop_back();
     EXPECT_THROW(render_svg(bad), std::invalid_argument);
+    EXPECT_THROW(write_plot(bad, (dir / "bad.png").string()), std::invalid_argument);
+    EXPECT_TRUE(std::filesystem::is_empty(dir));
     Plot empty;
     EXPECT_THROW(render_image(empty), std::invalid_argument);
     Plot logneg = p;
