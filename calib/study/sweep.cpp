@@ -211,7 +211,12 @@ Sweep parse_sweep(std::string_view text, const std::string &file, std::size_t ma
         throw SweepError(msg.str());
     }
     try {
-        scene::Fields top(root, file, "", {"base", "name", "axes", "constraints"});
+        scene::Fields top(root, file, "", {"base", "name", "set", "axes", "constraints"});
+        if (top.has("set")) {
+            if (!root["set"].is_table())
+                top.fail("set", "must be a table of scene sections ([set.plate], ...)");
+            s.set = *root["set"].as_table();
+        }
         const auto base = top.string("base");
         if (!base)
             top.fail("base", "missing (required): the base scene, relative to the sweep file");
@@ -277,9 +282,26 @@ Sweep parse_sweep(std::string_view text, const std::string &file, std::size_t ma
 
 Sweep load_sweep(const std::string &path) { return parse_sweep(read_file(path, "sweep"), path); }
 
+namespace {
+
+// [set] into the base: tables merge key by key, anything else replaces.
+void merge(toml::table &into, const toml::table &from)
+{
+    for (const auto &[k, v] : from) {
+        toml::table *sub = into[k].as_table();
+        if (sub && v.is_table())
+            merge(*sub, *v.as_table());
+        else
+            v.visit([&](const auto &x) { into.insert_or_assign(k, x); });
+    }
+}
+
+}  // namespace
+
 std::vector<Case> enumerate_cases(const Sweep &s)
 {
-    const toml::table base = toml::parse(s.base_text, s.base_path);
+    toml::table base = toml::parse(s.base_text, s.base_path);
+    merge(base, s.set);
     const std::size_t n = s.case_count();
     std::vector<Case> cases(n);
     for (std::size_t i = 0; i < n; i++) {

@@ -3,6 +3,7 @@
 // the cases are the cartesian product of the axes, enumerated in a fixed
 // order (first axis of the file outermost), each with an id hashed from its
 // scene text, so a case keeps its id and its result file across reruns,
+// sweeps,
 // machines and rank counts. docs/design-studies.md documents the file.
 #pragma once
 
@@ -62,6 +63,7 @@ struct Sweep {
     std::string base_path;   // resolved against the sweep file's folder
     std::string base_text;
     std::string name;        // [study] name, default: the sweep file's stem
+    toml::table set;         // [set]: scene keys every case gets (axes override them)
     std::vector<Axis> axes;
     Constraints constraints;
     std::size_t case_count() const;
