@@ -3,8 +3,7 @@
 // the cases are the cartesian product of the axes, enumerated in a fixed
 // order (first axis of the file outermost), each with an id hashed from its
 // scene text, so a case keeps its id and its result file across reruns,
-// sweeps,
-// machines and rank counts. docs/design-studies.md documents the file.
+// sweeps, machines and rank counts. docs/design-studies.md documents the file.
 #pragma once
 
 #include <toml++/toml.h>
