@@ -1,7 +1,10 @@
 // `calibgen study accuracy SCENE.toml --report DIR`: what accuracy costs in
 // time and memory (calib/study/accuracy.h, docs/ACCURACY.md).
+// `calibgen study design SWEEP.toml --report DIR`: design choices swept
+// through the whole calibration (calib/study/design.h, docs/design-studies.md).
 #include "app/commands.h"
 #include "study/accuracy.h"
+#include "study/design.h"
 
 #include <cstdio>
 #include <memory>
@@ -74,6 +77,19 @@ void register_study(CLI::App &app, int &exit_code)
     cmd->add_flag("--ppw-only", a->ppw_only, "Sweep points per wavelength only (no precision, Courant, window, model)");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress on stderr");
     cmd->callback([a, &exit_code] { exit_code = run_study_accuracy(*a); });
+
+    auto d = std::make_shared<study::DesignOptions>();
+    CLI::App *design = study->add_subcommand(
+        "design", "Sweep a base scene's design choices (exciter count, material, thickness, pulse, edges, placement): "
+                  "one full calibration and verification per case; CSV, plots and a summary of the best cases. "
+                  "Under mpirun the cases spread over the ranks; a rerun resumes an interrupted sweep");
+    design->add_option("sweep", d->sweep_path, "Sweep file (TOML): base scene and [axes]")->required();
+    design->add_option("--report", d->report_dir, "Directory for cases/, design.csv, timing.csv, plots, summary.md")
+        ->required();
+    design->add_option("--threads", d->threads, "Threads per rank (default: the cores shared among the ranks)")
+        ->check(CLI::Range(1, 1024));
+    design->add_flag("-q,--quiet", d->quiet, "No progress on stderr, no summary on stdout");
+    design->callback([d, &exit_code] { exit_code = study::run_design_study(*d); });
 }
 
 }  // namespace calib::app
