@@ -36,6 +36,15 @@ void require_finite(const std::vector<double> &trace, size_t index)
                                      std::to_string(n) + " (the simulation diverged)");
 }
 
+// "focus <id>" of the scene focus at p (the placement's emitters are foci of the scene).
+std::string focus_name(const CalibrationInput &in, Point p)
+{
+    for (const FocusPoint &f : in.foci.points)
+        if (f.at.x_m == p.x_m && f.at.y_m == p.y_m)
+            return "focus " + std::to_string(f.id);
+    return "focus at (" + fmt(p.x_m) + ", " + fmt(p.y_m) + ") m";
+}
+
 }  // namespace
 
 void place_exciters(const CalibrationInput &in, const CalibrationPlan &plan, const ProgressFn &progress,
@@ -91,8 +100,7 @@ void place_exciters(const CalibrationInput &in, const CalibrationPlan &plan, con
             impulse[e] = std::move(imp);
         } catch (const std::exception &ex) {
 #pragma omp critical
-            failure = (e < foci ? "focus at (" + fmt(emitters[e].x_m) + ", " + fmt(emitters[e].y_m) + ") m"
-                                : "probe " + std::to_string(e - foci)) +
+            failure = (e < foci ? focus_name(in, emitters[e]) : "probe " + std::to_string(e - foci)) +
                       ": " + ex.what();
         }
 #pragma omp critical
