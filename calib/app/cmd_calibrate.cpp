@@ -15,11 +15,13 @@
 #include <haptic_table.h>
 #include <sndfile.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <vector>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -163,12 +165,41 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
                          m.peak_m * 1e6, m.peak_time_s * 1e3);
         return;
     }
-    std::fprintf(stderr, "%-6s %9s %9s %10s %11s %9s %9s %s\n", "focus", "x_mm", "y_mm", "peak_um", "others_um",
-                 "contr_dB", "spot_mm", "threshold");
-    for (const pipeline::FocusMetrics &m : v.foci)
-        std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %11.2f %9.1f %9.1f %s\n", m.id, m.at.x_m * 1e3, m.at.y_m * 1e3,
-                     m.peak_m * 1e6, m.max_other_foci_m * 1e6, m.contrast_db, m.spot_diameter_m * 1e3,
-                     !m.crosses_threshold ? "peak below" : !m.others_below_threshold ? "others cross" : "ok");
+    // Up to a dozen foci, one line each; a dense grid as worst / median / best.
+    const bool per_focus = v.foci.size() <= 12;
+    if (per_focus) {
+        std::fprintf(stderr, "%-6s %9s %9s %10s %11s %9s %9s %9s %8s %s\n", "focus", "x_mm", "y_mm", "peak_um",
+                     "others_um", "contr_dB", "area_dB", "spot_mm", "lead_ms", "threshold");
+        for (const pipeline::FocusMetrics &m : v.foci)
+            std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %11.2f %9.1f %9s %9.1f %8.1f %s\n", m.id, m.at.x_m * 1e3,
+                         m.at.y_m * 1e3, m.peak_m * 1e6, m.max_other_foci_m * 1e6, m.other_foci_contrast_db,
+                         m.whole_area ? fmt("%.1f", m.whole_area_contrast_db).c_str() : "-", m.spot_diameter_m * 1e3,
+                         m.lead_time_s * 1e3,
+                         !m.crosses_threshold ? "peak below" : !m.others_below_threshold ? "others cross" : "ok");
+    } else {
+        auto stat = [&](const char *name, const char *unit, double scale, auto get) {
+            std::vector<double> x;
+            for (const pipeline::FocusMetrics &m : v.foci)
+                x.push_back(get(m) * scale);
+            std::sort(x.begin(), x.end());
+            std::fprintf(stderr, "%-34s %9.2f %9.2f %9.2f %s\n", name, x.front(), x[x.size() / 2], x.back(), unit);
+        };
+        std::fprintf(stderr, "%zu foci %-26s %9s %9s %9s\n", v.foci.size(), "", "min", "median", "max");
+        stat("peak", "um", 1e6, [](const pipeline::FocusMetrics &m) { return m.peak_m; });
+        stat("contrast over the other foci", "dB", 1, [](const pipeline::FocusMetrics &m) { return m.other_foci_contrast_db; });
+        stat("whole-area contrast, all times", "dB", 1, [](const pipeline::FocusMetrics &m) { return m.whole_area_contrast_db; });
+        stat("spot diameter", "mm", 1e3, [](const pipeline::FocusMetrics &m) { return m.spot_diameter_m; });
+        stat("lead time", "ms", 1e3, [](const pipeline::FocusMetrics &m) { return m.lead_time_s; });
+        stat("perceived offset", "mm", 1e3, [](const pipeline::FocusMetrics &m) { return m.perceived_offset_distance_m; });
+        size_t below = 0, others = 0, whole = 0;
+        for (const pipeline::FocusMetrics &m : v.foci) {
+            below += !m.crosses_threshold;
+            others += !m.others_below_threshold;
+            whole += m.whole_area && !m.whole_area_below_threshold;
+        }
+        std::fprintf(stderr, "peak below threshold at %zu foci; other foci cross at %zu; the area beyond lambda/2 crosses at %zu\n",
+                     below, others, whole);
+    }
     std::fprintf(stderr, "(threshold %.1f um, lambda/2 = %.1f mm, exciter force at full scale %.3g N)\n",
                  in.calibration.threshold_m * 1e6, v.foci.empty() ? 0.0 : v.foci[0].lambda_half_m * 1e3,
                  in.exciters.force_full_scale_n);

@@ -351,6 +351,24 @@ void Simulation::run(std::size_t steps)
         else
             scan_kirchhoff(e, detected_by);
     };
+    // Step index (0-based) of the state just computed, against the lattice schedule.
+    auto n_done_ok = [&](std::size_t done) {
+        const std::size_t s = done - 1;
+        return s >= lattice_first_ && (s - lattice_first_) % lattice_interval_ == 0;
+    };
+    auto record = [&](auto &e) {
+        using E = std::remove_reference_t<decltype(*e)>;
+        const int st = lattice_stride_;
+        for (int j = 0; j <= g.ny; j += st)
+            for (int i = 0; i <= g.nx; i += st) {
+                if constexpr (std::is_same_v<E, effects::MindlinEngine>) {
+                    const std::ptrdiff_t u = e->plate().w_index(i, j);
+                    lattice_frames_.push_back(u >= 0 ? static_cast<float>(e->state()[u]) : 0.0f);
+                } else {
+                    lattice_frames_.push_back(static_cast<float>(e->newest_field()[j * e->stride() + i]));
+                }
+            }
+    };
     std::visit(
         [&](auto &e) {
             using E = std::remove_reference_t<decltype(*e)>;
@@ -402,6 +420,8 @@ void Simulation::run(std::size_t steps)
                          std::to_string(now) + " (t = " + fmt("%.6g", double(now + 1) * k_) +
                          " s) from finite node values (overflow)");
                 }
+                if (lattice_stride_ > 0 && n_done_ok(e->steps_done()))
+                    record(e);
                 if (interval > 0 && e->steps_done() % interval == 0)
                     scan(e, "the whole-field scan");
             }
@@ -428,6 +448,15 @@ std::vector<double> Simulation::snapshot() const
             }
         },
         engine_);
+}
+
+void Simulation::record_lattice(int stride, std::size_t first_step, std::size_t interval)
+{
+    if (stride < 1 || interval < 1)
+        throw std::invalid_argument("record_lattice: stride and interval must be >= 1");
+    lattice_stride_ = stride;
+    lattice_first_ = first_step;
+    lattice_interval_ = interval;
 }
 
 double Simulation::energy() const

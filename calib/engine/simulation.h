@@ -102,6 +102,12 @@ public:
     // traces()[r][n]: displacement (m) of receiver r after step n.
     const std::vector<std::vector<double>> &traces() const { return traces_; }
     std::vector<double> snapshot() const;  // node grid, row-major (j, i)
+    // Decimated whole-field recording: w at every `stride`-th node of both axes
+    // (from node (0, 0)), after step `first_step` and every `interval` steps
+    // after it, appended to lattice_frames() ([frame][point], row-major). A copy
+    // of the lattice every `interval` steps instead of per-step receivers.
+    void record_lattice(int stride, std::size_t first_step, std::size_t interval);
+    const std::vector<float> &lattice_frames() const { return lattice_frames_; }
     double energy() const;  // the plate's (J); a finger's own energy is not included
 
 private:
@@ -116,6 +122,9 @@ private:
     std::vector<std::vector<double>> signals_;
     std::vector<std::size_t> signal_start_;
     std::vector<std::vector<double>> traces_;
+    int lattice_stride_ = 0;
+    std::size_t lattice_first_ = 0, lattice_interval_ = 1;
+    std::vector<float> lattice_frames_;
     std::size_t last_clean_scan_ = 0;  // steps_done() at the last whole-field scan that found nothing
     std::string failure_;              // set once a non-finite value was found
 };

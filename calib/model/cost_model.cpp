@@ -92,6 +92,8 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
     p.fields_mb = running * simulation_bytes(plan.nodes, prec, 0, 0) / mb;
     p.traces_mb = running * simulation_bytes(0, prec, plan.sites.size(), plan.window_steps) / mb;
     p.recordings_mb = 2 * emitters * sites * in.calibration.window_s * plan.search_rate_hz * 4 / mb;
+    // H and the spectra of its points (playback.h), kept through the verification.
+    p.recordings_mb = std::max(p.recordings_mb, 3 * plan.transfer_bytes / mb);
     p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;
     if (!cost)
         return p;
@@ -104,6 +106,10 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
     for (const pipeline::VerificationPass &pass : plan.verification)
         verify_steps += double(plan.drive_steps) + (pass.snapshots ? kept_steps : 0);
     p.verify_s = cost->seconds_per_step_verify * verify_steps * std::ceil(K / P);
+    // The transfer matrix: one simulation per exciter (the convolutions are
+    // small beside it: 0.13 s of 1.1 s on Fig. 7, docs/BENCHMARKS.md).
+    if (plan.transfer)
+        p.verify_s += cost->seconds_per_step_verify * double(plan.transfer_steps) * std::ceil(in.exciters.count / P);
     p.seconds = p.simulate_s + p.verify_s;
     return p;
 }
@@ -121,11 +127,15 @@ Prediction predict_verification(const pipeline::CalibrationInput &in, const pipe
     // and its |w| snapshot (float per node) until the report is written.
     p.fields_mb = running * simulation_bytes(plan.nodes, prec, 0, 0) / mb + K * double(plan.nodes) * 4 / mb;
     p.traces_mb = K * simulation_bytes(0, prec, plan.foci, plan.drive_steps) / mb;
-    p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb;
+    if (plan.transfer)
+        p.recordings_mb = 3 * plan.transfer_bytes / mb;
+    p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;
     if (!cost)
         return p;
     const double kept_steps = in.calibration.truncate_fraction * in.calibration.window_s / plan.time_step_s;
-    p.verify_s = cost->seconds_per_step_verify * (double(plan.drive_steps) + kept_steps) * std::ceil(K / P);
+    p.verify_s = plan.transfer ? cost->seconds_per_step_verify * double(plan.transfer_steps) *
+                                     std::ceil(in.exciters.count / P)
+                               : cost->seconds_per_step_verify * (double(plan.drive_steps) + kept_steps) * std::ceil(K / P);
     p.seconds = p.verify_s;
     return p;
 }

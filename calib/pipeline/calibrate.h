@@ -1,5 +1,9 @@
-// The calibration pipeline: per-focus simulation by reciprocity, placement
-// search, time-reversal signals, verification by forward simulation.
+// The calibration pipeline, in stages: responses (one reciprocity simulation
+// per focus of the placement subset), placement search, the transfer matrix H
+// of the placed exciters (transfer.h), time-reversal signals from H, level and
+// verification by convolution with H (verification.cpp). A scene with
+// [effects.finger] verifies by forward simulation per focus instead: the
+// finger changes the plate at each touch position, so H does not hold.
 // `calibgen calibrate` and `calibgen verify` are thin shells around this.
 #pragma once
 #include "engine/effects/effects.h"
@@ -46,18 +50,32 @@ struct PlacementReport {
 struct FocusMetrics {
     uint32_t id = 0;
     Point at;
-    double peak_m = 0;              // max |w| at the focus when its signals play at full scale
-    double peak_time_s = 0;
+    double peak_m = 0;              // max |w| at the focus while its stored signals play
+    double peak_time_s = 0;         // from the start of playback
+    double lead_time_s = 0;         // playback start to the focal peak (what a person waits, before device latency)
     double max_other_foci_m = 0;    // max |w| at every other focus, at all times
-    double contrast_db = 0;         // 20 log10(peak / max_other)
+    double other_foci_contrast_db = 0;  // 20 log10(peak / max_other)
     double spot_diameter_m = 0;     // circle of the area around the focus where |w| >= peak / 2
     // At the focus instant: the largest |w| on the plate farther than lambda/2
     // from the focus, and the focus's margin over it (what the seed's Fig. 4 shows).
     double max_elsewhere_m = 0;
     double field_contrast_db = 0;
+    // At all times of the playback and its decay: the largest |w| in the active
+    // area farther than lambda/2 from the focus (on the observation lattice),
+    // where it is, and the focus's margin over it.
+    double max_whole_area_m = 0;
+    Point whole_area_max_at;
+    double whole_area_contrast_db = 0;
+    // Centroid of the active area where |w| reaches the threshold at some time,
+    // minus the focus (m): where a person feels the pulse, and how far off.
+    Point perceived_offset_m;
+    double perceived_offset_distance_m = 0;
+    double area_above_threshold_m2 = 0;
     double lambda_half_m = 0;       // half the A0 wavelength at the pulse centre
     bool crosses_threshold = false;
     bool others_below_threshold = false;
+    bool whole_area_below_threshold = false;  // nowhere beyond lambda/2 reaches the threshold
+    bool whole_area = false;        // the whole-area figures were measured
 };
 
 struct Verification {
@@ -65,14 +83,33 @@ struct Verification {
     double trace_rate_hz = 0;
     // traces[f][g]: displacement at focus g while focus f is driven (m).
     std::vector<std::vector<std::vector<double>>> traces;
-    // snapshots[f]: |w| field (node grid, row-major) at focus f's peak.
+    // snapshots[f]: |w| field at focus f's peak on the grid below (row-major):
+    // the observation lattice of H, or the plate grid on the forward path.
     std::vector<std::vector<float>> snapshots;
-    int grid_nx = 0, grid_ny = 0;
+    int grid_nx = 0, grid_ny = 0;   // intervals per axis (points - 1)
     double grid_h_m = 0;
+    // Whole-area data for the report (H path only; empty otherwise):
+    // max_abs[f][n]: max over all times of |w| at lattice point n (same grid as
+    // the snapshots) while focus f plays: the per-focus field of ghosts. The
+    // per-focus whole-area contrast map over the active area is
+    // foci[f].whole_area_contrast_db at foci[f].at.
+    std::vector<std::vector<float>> max_abs;
+    // The worst focus (least whole-area contrast) over time: frames[s][n] is
+    // w (signed, m) at lattice point n at time s / frame_rate_hz from the start
+    // of playback, through the drive and its decay.
+    std::size_t worst_focus = 0;
+    double frame_rate_hz = 0;
+    std::vector<std::vector<float>> frames;
 };
 
 struct StageTimes {
-    double simulation_s = 0, search_s = 0, signals_s = 0, verification_s = 0;
+    double simulation_s = 0, search_s = 0, transfer_s = 0, signals_s = 0, verification_s = 0;
+};
+
+// Sizes of the transfer matrix a calibration used.
+struct TransferSummary {
+    std::size_t channels = 0, lattice_points = 0, exact_points = 0, samples = 0;
+    double rate_hz = 0, lattice_spacing_m = 0, bytes = 0;
 };
 
 struct CalibrationResult {
@@ -83,6 +120,7 @@ struct CalibrationResult {
     Verification verification;
     StageTimes times;
     double search_rate_hz = 0;          // rate of the stored (decimated) recordings
+    TransferSummary transfer;           // empty on the forward path ([effects.finger])
 };
 
 // Refuses impossible scenes before any simulation (std::invalid_argument,
@@ -92,18 +130,30 @@ void check_feasible(const CalibrationInput &in);
 
 CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progress = {});
 
-// Forward simulation: drive the exciters with per-focus signals ([n][c]
-// int16 at rate_hz, full scale = force_full_scale_n) and measure every focus.
-// Without snapshots only the traces and peaks are measured (half the cost).
+// Drive the exciters with per-focus signals ([n][c] int16 at rate_hz, full
+// scale = force_full_scale_n) and measure every focus: by convolution with the
+// transfer matrix of these exciters (simulated here, one simulation per
+// exciter), or, with [effects.finger], by a forward simulation per focus.
+// Without `whole_area` only the foci are measured (traces, peaks, contrast
+// over the other foci).
 Verification verify_signals(const CalibrationInput &in, const std::vector<Point> &exciters,
                             const std::vector<std::vector<int16_t>> &signals, double rate_hz,
-                            const ProgressFn &progress = {}, bool snapshots = true);
+                            const ProgressFn &progress = {}, bool whole_area = true);
 
-// Forward simulation of one multichannel drive (e.g. what the device
-// played): returns traces[0][g] and, per focus, the peak and its time.
+// One multichannel drive (e.g. what the device played, or a superposition of
+// foci): returns traces[0][g] and, per focus, the peak and its time; by
+// convolution with H (or forward simulation with [effects.finger]).
 Verification verify_drive(const CalibrationInput &in, const std::vector<Point> &exciters,
                           const std::vector<float> &frames, unsigned channels, double rate_hz,
                           const ProgressFn &progress = {});
+
+// Whether a scene's plate is linear and time-invariant during playback (H
+// holds): every effect but the finger.
+bool transfer_holds(const CalibrationInput &in);
+
+// The options of every simulation of a calibration: one core each (they run
+// in parallel), the Mindlin engine when the scene asks for the thick plate.
+engine::SimulationOptions single_core_options(const CalibrationInput &in);
 
 // Writes the table atomically with common/ (scale_m from the verification).
 void write_table(const std::string &path, const CalibrationInput &in, const CalibrationResult &result);

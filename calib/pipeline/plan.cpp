@@ -1,6 +1,7 @@
 #include "pipeline/plan.h"
 
 #include "pipeline/calibrate.h"
+#include "pipeline/transfer.h"
 
 #include <algorithm>
 #include <cmath>
@@ -98,6 +99,13 @@ CalibrationPlan plan(const CalibrationInput &in)
     // The drive is the kept part of the window (time_reversal.cpp), then the tail.
     p.drive_steps = steps_for(in.calibration.truncate_fraction * in.calibration.window_s + in.calibration.verify_tail_s,
                               p.time_step_s);
+    p.transfer = transfer_holds(in);
+    if (!p.transfer)
+        p.verification = {{true, false}, {false, true}};
+    const TransferOptions t = transfer_options(in, p.time_step_s);
+    const ObservationLattice lat = observation_lattice(in, t.lattice_stride);
+    p.transfer_steps = t.samples * t.decimation;
+    p.transfer_bytes = double(in.exciters.count) * double(lat.size() + p.foci) * double(t.samples) * sizeof(float);
     return p;
 }
 

@@ -39,7 +39,15 @@ struct CalibrationPlan {
     double time_step_s = 0;        // Kirchhoff step of the scene's settings (the thick plate's is smaller)
     std::size_t window_steps = 0;  // per reciprocity simulation
     std::size_t drive_steps = 0;   // per verification run: the kept part of the window and the tail
-    std::vector<VerificationPass> verification{{true, false}, {false, true}};
+    // The forward passes ([effects.finger] only: the finger changes the plate
+    // per touch position); empty when the transfer matrix serves.
+    std::vector<VerificationPass> verification;
+    // The transfer matrix (transfer.h): one simulation per exciter of
+    // transfer_steps, and H's bytes (channels x observed points x samples,
+    // float); the playback keeps their spectra too (about twice as much).
+    bool transfer = true;
+    std::size_t transfer_steps = 0;
+    double transfer_bytes = 0;
 
     std::size_t probes() const { return emitters.size() - foci; }
 };

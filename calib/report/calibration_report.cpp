@@ -46,24 +46,37 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
     const pipeline::CalibrationInput &in = *c.input;
     toml::array foci;
     bool all_cross = true, all_below = true;
-    double min_contrast = INFINITY;
+    double min_contrast = INFINITY, min_whole = INFINITY;
+    bool all_whole_below = true;
     for (const FocusMetrics &m : c.verification->foci) {
         toml::table t{{"id", static_cast<int64_t>(m.id)},
                       {"x_m", m.at.x_m},
                       {"y_m", m.at.y_m},
                       {"peak_m", m.peak_m},
                       {"peak_time_s", m.peak_time_s},
+                      {"lead_time_s", m.lead_time_s},
                       {"lambda_half_m", m.lambda_half_m},
                       {"crosses_threshold", m.crosses_threshold}};
         if (c.mode == "table") {
             t.insert("max_other_foci_m", m.max_other_foci_m);
-            t.insert("contrast_db", m.contrast_db);
+            t.insert("other_foci_contrast_db", m.other_foci_contrast_db);
             t.insert("spot_diameter_m", m.spot_diameter_m);
             t.insert("max_elsewhere_m", m.max_elsewhere_m);
             t.insert("field_contrast_db", m.field_contrast_db);
             t.insert("others_below_threshold", m.others_below_threshold);
+            if (m.whole_area) {
+                t.insert("whole_area_contrast_db", m.whole_area_contrast_db);
+                t.insert("max_whole_area_m", m.max_whole_area_m);
+                t.insert("whole_area_max_xy_m", toml::array{m.whole_area_max_at.x_m, m.whole_area_max_at.y_m});
+                t.insert("whole_area_below_threshold", m.whole_area_below_threshold);
+                t.insert("perceived_offset_m", toml::array{m.perceived_offset_m.x_m, m.perceived_offset_m.y_m});
+                t.insert("perceived_offset_distance_m", m.perceived_offset_distance_m);
+                t.insert("area_above_threshold_m2", m.area_above_threshold_m2);
+                min_whole = std::min(min_whole, m.whole_area_contrast_db);
+                all_whole_below &= m.whole_area_below_threshold;
+            }
             all_below &= m.others_below_threshold;
-            min_contrast = std::min(min_contrast, m.contrast_db);
+            min_contrast = std::min(min_contrast, m.other_foci_contrast_db);
         }
         all_cross &= m.crosses_threshold;
         foci.push_back(std::move(t));
@@ -81,7 +94,11 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                      {"all_cross_threshold", all_cross}};
     if (c.mode == "table") {
         root.insert("all_others_below_threshold", all_below);
-        root.insert("min_contrast_db", min_contrast);
+        root.insert("min_other_foci_contrast_db", min_contrast);
+        if (std::isfinite(min_whole)) {
+            root.insert("min_whole_area_contrast_db", min_whole);
+            root.insert("all_whole_area_below_threshold", all_whole_below);
+        }
     }
     if (c.result) {
         const pipeline::PlacementReport &p = c.result->placement;
@@ -95,6 +112,7 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
         const pipeline::StageTimes &s = c.result->times;
         root.insert("times_s", toml::table{{"simulation", s.simulation_s},
                                            {"search", s.search_s},
+                                           {"transfer", s.transfer_s},
                                            {"signals", s.signals_s},
                                            {"verification", s.verification_s},
                                            {"total", c.total_s}});
@@ -329,9 +347,10 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     }
     h << "<h2>Metrics</h2><table><tr><th>focus</th><th>x (mm)</th><th>y (mm)</th><th>peak (um)</th>";
     if (c.mode == "table")
-        h << "<th>max at other foci (um)</th><th>contrast (dB)</th><th>spot diameter (mm)</th><th>lambda/2 (mm)</th>"
-             "<th>field contrast at the focus instant (dB)</th>"
-             "<th>crosses threshold</th><th>others below</th>";
+        h << "<th>max at other foci (um)</th><th>contrast over the other foci (dB)</th><th>spot diameter (mm)</th>"
+             "<th>lambda/2 (mm)</th><th>field contrast at the focus instant (dB)</th>"
+             "<th>whole-area contrast, all times (dB)</th><th>lead time (ms)</th><th>perceived offset (mm)</th>"
+             "<th>crosses threshold</th><th>others below</th><th>whole area below</th>";
     else
         h << "<th>peak time (ms)</th><th>crosses threshold</th>";
     h << "</tr>";
@@ -340,10 +359,13 @@ void write_html_report(const std::string &dir, const ReportContext &c)
         h << "<tr><td>" << m.id << "</td><td>" << num(m.at.x_m * 1e3) << "</td><td>" << num(m.at.y_m * 1e3)
           << "</td><td>" << num(m.peak_m * 1e6) << "</td>";
         if (c.mode == "table")
-            h << "<td>" << num(m.max_other_foci_m * 1e6) << "</td><td>" << num(m.contrast_db) << "</td><td>"
+            h << "<td>" << num(m.max_other_foci_m * 1e6) << "</td><td>" << num(m.other_foci_contrast_db) << "</td><td>"
               << num(m.spot_diameter_m * 1e3) << "</td><td>" << num(m.lambda_half_m * 1e3) << "</td><td>"
-              << num(m.field_contrast_db) << "</td>"
-              << yes(m.crosses_threshold) << yes(m.others_below_threshold);
+              << num(m.field_contrast_db) << "</td><td>" << (m.whole_area ? num(m.whole_area_contrast_db) : "-")
+              << "</td><td>" << num(m.lead_time_s * 1e3) << "</td><td>"
+              << (m.whole_area ? num(m.perceived_offset_distance_m * 1e3) : "-") << "</td>"
+              << yes(m.crosses_threshold) << yes(m.others_below_threshold)
+              << (m.whole_area ? yes(m.whole_area_below_threshold) : std::string("<td>-</td>"));
         else
             h << "<td>" << num(m.peak_time_s * 1e3) << "</td>" << yes(m.crosses_threshold);
         h << "</tr>";

@@ -271,7 +271,7 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
             x.contrast_db = INFINITY;
             for (size_t f = 0; f < v.foci.size(); f++) {
                 const pipeline::FocusMetrics &fm = v.foci[f];
-                const double contrast = v.foci.size() > 1 ? fm.contrast_db
+                const double contrast = v.foci.size() > 1 ? fm.other_foci_contrast_db
                                                           : 20 * std::log10(fm.peak_m / fm.max_elsewhere_m);
                 const Point2 at = snapshot_peak(v.snapshots[f], v.grid_nx, v.grid_ny, v.grid_h_m);
                 FocusOut fo{at.x, at.y, contrast};

@@ -106,7 +106,7 @@ CaseResult run_case(const Sweep &sweep, const Case &c, int rank)
             const pipeline::FocusMetrics &m = v.foci[f];
             // One focus has no other foci: then its margin over the rest of
             // the plate at the focus instant is the contrast (as the accuracy study).
-            const double contrast = v.foci.size() > 1 ? m.contrast_db : m.field_contrast_db;
+            const double contrast = v.foci.size() > 1 ? m.other_foci_contrast_db : m.field_contrast_db;
             r.worst_contrast_db = std::min(r.worst_contrast_db, contrast);
             r.max_spot_m = std::max(r.max_spot_m, m.spot_diameter_m);
             r.max_lead_time_s = std::max(r.max_lead_time_s, m.peak_time_s);

@@ -1,0 +1,23 @@
+// The stages calibrate() runs in order (calibrate.cpp): responses and
+// placement (calibrate_placement.cpp), the transfer matrix (transfer.h),
+// signals from it, level and verification (verification.h).
+#pragma once
+#include "pipeline/calibrate.h"
+#include "pipeline/plan.h"
+#include "pipeline/transfer.h"
+
+#include <vector>
+
+namespace calib::pipeline {
+
+// Stages 1-2: fills res.placement, res.exciters, res.search_rate_hz and the
+// simulation and search times.
+void place_exciters(const CalibrationInput &in, const CalibrationPlan &plan, const ProgressFn &progress,
+                    CalibrationResult &res);
+
+// Stage 4: the time-reversal signals of every focus from H (reciprocity:
+// H's exciter -> focus response is the focus -> exciter recording), the
+// pulse convolved in at H's rate, at full scale.
+std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H);
+
+}  // namespace calib::pipeline

@@ -1,0 +1,54 @@
+// Verification through the transfer matrix: a drive's field at the foci and
+// on the observation lattice is its convolution with H (playback.h), and the
+// per-focus figures (calibrate.h FocusMetrics) are read from it: the focal
+// peak and its time, the other foci, the field at the focus instant (spot,
+// contrast there) and at all times over the active area (whole-area contrast,
+// perceived position, the area above the threshold).
+//
+// The forward path (verification_forward.cpp) serves scenes whose plate is
+// not time-invariant ([effects.finger]); it measures the foci and the field at
+// the focus instant on the plate grid, not the whole area at all times.
+#pragma once
+#include "pipeline/calibrate.h"
+#include "pipeline/transfer.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace calib::pipeline {
+
+// H for verifying these exciters: the scene's lattice and the foci exactly.
+TransferMatrix transfer_for(const CalibrationInput &in, const std::vector<Point> &exciters,
+                            const ProgressFn &progress = {});
+
+// Force (N) at H's rate for one drive ([n][c] at full scale 1.0, rate_hz):
+// band-limited resampling, the exciter's blocked force when the scene models it.
+std::vector<std::vector<double>> drive_forces(const CalibrationInput &in, const TransferMatrix &H,
+                                              const std::vector<float> &frames, unsigned channels, double rate_hz);
+
+// Focal peak (m) of each focus's signals, foci only (the level pass).
+std::vector<double> focal_peaks(const CalibrationInput &in, const TransferMatrix &H,
+                                const std::vector<std::vector<int16_t>> &signals, double rate_hz);
+
+Verification verify_signals_with(const CalibrationInput &in, const TransferMatrix &H,
+                                 const std::vector<std::vector<int16_t>> &signals, double rate_hz,
+                                 const ProgressFn &progress = {}, bool whole_area = true);
+Verification verify_drive_with(const CalibrationInput &in, const TransferMatrix &H, const std::vector<float> &frames,
+                               unsigned channels, double rate_hz);
+
+// The forward path (one simulation per focus, the finger composed).
+Verification verify_signals_forward(const CalibrationInput &in, const std::vector<Point> &exciters,
+                                    const std::vector<std::vector<int16_t>> &signals, double rate_hz,
+                                    const ProgressFn &progress, bool snapshots);
+Verification verify_drive_forward(const CalibrationInput &in, const std::vector<Point> &exciters,
+                                  const std::vector<float> &frames, unsigned channels, double rate_hz,
+                                  const ProgressFn &progress);
+
+// Diameter of the circle with the area of the connected region around the
+// focus where |w| >= level, on a (nx + 1) x (ny + 1) grid of spacing h.
+double spot_diameter(const std::vector<float> &field, int nx, int ny, double h, Point focus, double level);
+
+// int16 samples as floats at full scale 1.0.
+std::vector<float> to_unit(const std::vector<int16_t> &s);
+
+}  // namespace calib::pipeline
