@@ -196,15 +196,12 @@ std::string layout_svg(const ReportContext &c)
 
 // |w| at each focus's instant on the node lattice, on one colour scale in um
 // for all foci (one colour, one displacement), the threshold as a contour.
-std::vector<std::string> snapshot_imgs(const ReportContext &c)
+// The plate, the active area, the foci and the exciters, the threshold as a
+// contour; the colour scale from 0 to vmax_m.
+FieldStyle field_style(const ReportContext &c, double vmax_m, int width_px)
 {
-    const pipeline::Verification &v = *c.verification;
     const auto &pp = c.input->plate->params();
     FieldStyle s;
-    float vmax_m = 0;
-    for (const std::vector<float> &snap : v.snapshots)
-        for (float w : snap)
-            vmax_m = std::max(vmax_m, w);
     s.vmax = vmax_m > 0 ? vmax_m : 1e-6;
     s.threshold = c.input->calibration.threshold_m;
     s.plate_x_m = pp.size_x_m;
@@ -215,10 +212,66 @@ std::vector<std::string> snapshot_imgs(const ReportContext &c)
         s.markers.push_back({p.at.x_m, p.at.y_m, std::to_string(p.id), Marker::Kind::focus});
     for (size_t e = 0; e < c.exciters.size(); e++)
         s.markers.push_back({c.exciters[e].x_m, c.exciters[e].y_m, std::to_string(e), Marker::Kind::exciter});
-    s.width_px = 440;
+    s.width_px = width_px;
+    return s;
+}
+
+FieldMap lattice_map(const pipeline::Verification &v, std::vector<float> values)
+{
+    return {v.grid_nx + 1, v.grid_ny + 1, 0, 0, v.grid_h_m, v.grid_h_m, std::move(values)};
+}
+
+// The worst focus (least whole-area contrast): the largest |w| each point of
+// the plate reaches at any time of the playback and its decay (a ghost is a
+// bright patch away from the focus), and |w| over time as a movie, both on
+// the scale of its focal peak with the threshold as a contour.
+std::string worst_focus_html(const ReportContext &c)
+{
+    const pipeline::Verification &v = *c.verification;
+    const size_t f = v.worst_focus;
+    if (v.max_abs.size() <= f || v.max_abs[f].empty() || v.frames.empty())
+        return "";
+    const pipeline::FocusMetrics &m = v.foci[f];
+    std::ostringstream h;
+    h << "<h2>Whole area: the worst focus</h2><p>Focus " << m.id << " has the least whole-area contrast ("
+      << num(m.whole_area_contrast_db) << " dB): its focal peak over the largest |w| anywhere in the active area "
+      << "farther than lambda/2 from it, at any time.</p><div class='grid'>";
+    FieldStyle s = field_style(c, m.peak_m, 440);
+    s.title = "max |w| over all times, focus " + std::to_string(m.id);
+    const std::vector<std::string> img = render_field_uris({lattice_map(v, v.max_abs[f])}, {s});
+    h << "<figure class='cell'><img src='" << img[0] << "' alt='max |w| over all times'><figcaption>max |w| at "
+      << "every point over the playback and its decay; white line: the threshold</figcaption></figure></div>";
+    // At most 60 frames over the whole run: enough to follow a wave front
+    // across the plate, small enough for a self-contained page.
+    const size_t step = std::max<size_t>(1, (v.frames.size() + 59) / 60);
+    std::vector<FieldMap> frames;
+    std::vector<double> times;
+    for (size_t k = 0; k < v.frames.size(); k += step) {
+        std::vector<float> a(v.frames[k].size());
+        for (size_t n = 0; n < a.size(); n++)
+            a[n] = std::abs(v.frames[k][n]);
+        frames.push_back(lattice_map(v, std::move(a)));
+        times.push_back(static_cast<double>(k) / v.frame_rate_hz);
+    }
+    s.title = "|w| over time, focus " + std::to_string(m.id);
+    s.width_px = 400;
+    h << "<figure>" << field_movie_html(frames, times, s, "worst-focus-movie")
+      << "<figcaption>|w| from the start of playback, every " << num(1e3 * step / v.frame_rate_hz)
+      << " ms; same colour scale as above</figcaption></figure>";
+    return h.str();
+}
+
+std::vector<std::string> snapshot_imgs(const ReportContext &c)
+{
+    const pipeline::Verification &v = *c.verification;
+    float vmax_m = 0;
+    for (const std::vector<float> &snap : v.snapshots)
+        for (float w : snap)
+            vmax_m = std::max(vmax_m, w);
+    const FieldStyle s = field_style(c, vmax_m, 440);
     std::vector<FieldMap> maps;
     for (const std::vector<float> &snap : v.snapshots)
-        maps.push_back({v.grid_nx + 1, v.grid_ny + 1, 0, 0, v.grid_h_m, v.grid_h_m, snap});
+        maps.push_back(lattice_map(v, snap));
     std::vector<std::string> imgs = render_field_uris(maps, {s});
     for (size_t f = 0; f < imgs.size(); f++)
         imgs[f] = "<img src='" + imgs[f] + "' alt='|w| when focus " + std::to_string(v.foci[f].id) + " peaks'>";
@@ -378,7 +431,7 @@ void write_html_report(const std::string &dir, const ReportContext &c)
             h << "<figure class='cell'>" << snapshots[f] << "<figcaption>|w| when focus "
               << v.foci[f].id << " peaks (" << num(v.foci[f].peak_time_s * 1e3)
               << " ms); one colour scale for all foci, white line: the threshold</figcaption></figure>";
-        h << "</div>";
+        h << "</div>" << worst_focus_html(c);
     }
     h << "<h2>Displacement at the foci</h2><div class='grid'>";
     for (size_t f = 0; f < v.traces.size(); f++)
