@@ -38,6 +38,12 @@ Loss loss_from_t60(double kappa, double f1, double t1, double f2, double t2)
     Loss loss;
     loss.sigma1 = (s2 - s1) / (xi2 - xi1);
     loss.sigma0 = s1 - loss.sigma1 * xi1;
+    // An exact 1/f law (T60 proportional to 1/f, a constant loss factor) has
+    // sigma0 = 0 in exact arithmetic; the subtraction above leaves a round-off
+    // residue of either sign, a few ulps of s1. That is zero, not a law that
+    // falls faster than 1/f.
+    if (std::abs(loss.sigma0) <= 1e-12 * s1)
+        loss.sigma0 = 0;
     if (loss.sigma1 < 0) {
         char buf[200];
         std::snprintf(buf, sizeof buf, "loss: T60 must not grow with frequency (%g s at %g Hz, %g s at %g Hz)", t1, f1,

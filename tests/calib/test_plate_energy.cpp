@@ -123,6 +123,26 @@ TEST(PlateEnergy, LossDecaysModesAtTheRequestedT60)
     }
 }
 
+TEST(PlateEnergy, LossFitTakesAnExactOneOverFLawAtEveryThickness)
+{
+    // A constant loss factor: T60 proportional to 1/f, so sigma0 = 0 exactly.
+    // The fit must accept it whatever the plate's kappa (round-off in the
+    // subtraction once refused it at 3 mm of acrylic), and must still refuse a
+    // law that falls faster than 1/f by a part in a million.
+    int accepted = 0;
+    for (int i = 0; i < 200; i++) {
+        const double kappa = 0.05 * std::pow(1.03, i);  // 0.05 ... 18 m^2/s
+        const Loss l = loss_from_t60(kappa, 100, 0.54, 300, 0.18);
+        EXPECT_GE(l.sigma0, 0.0) << "kappa " << kappa;
+        EXPECT_LT(l.sigma0, 1e-12 * 3 * std::log(10.0) / 0.54) << "kappa " << kappa;
+        // sigma1 xi = the decay rate at each frequency: 3 ln 10 / T60.
+        EXPECT_NEAR(l.sigma1 * 2 * std::numbers::pi * 300 / kappa, 3 * std::log(10.0) / 0.18, 1e-9);
+        EXPECT_THROW(loss_from_t60(kappa, 100, 0.54, 300, 0.18 * (1 - 1e-6)), std::invalid_argument);
+        accepted++;
+    }
+    EXPECT_EQ(accepted, 200);
+}
+
 TEST(PlateEnergy, LossFitRefusesGrowingT60)
 {
     EXPECT_THROW(loss_from_t60(1.0, 100, 0.1, 1000, 0.2), std::invalid_argument);
