@@ -253,24 +253,33 @@ TEST(Calibration, EndToEndEveryFocusForms)
     EXPECT_EQ(r2.signals[2].samples, r.signals[2].samples);
 }
 
-TEST(Calibration, Fig4RandomPlacementIsNoWorseThanTheRegularOne)
+TEST(Calibration, Fig4RandomPlacementFocusesBetterThanTheRegularOne)
 {
-    const std::filesystem::path scene = std::filesystem::path(HAPTIC_SOURCE_DIR) / "scenes/paper-fig4-random.toml";
-    pipeline::CalibrationInput in = input_of(
-        [&] {
-            std::FILE *f = std::fopen(scene.c_str(), "rb");
-            std::string text;
-            char buf[4096];
-            size_t n;
-            while (f && (n = std::fread(buf, 1, sizeof buf, f)) > 0)
-                text.append(buf, n);
-            if (f)
-                std::fclose(f);
-            return text;
-        }(),
-        "paper-fig4-random.toml");
-    in.exciters.iterations = 400;  // a shorter search than the scene's: enough to beat the start
-    pipeline::CalibrationResult r = pipeline::calibrate(in);
-    EXPECT_EQ(r.placement.regular.size(), 8u);
-    EXPECT_GE(r.placement.chosen_contrast_db, r.placement.regular_contrast_db);
+    // The seed's Fig. 4: at the focus instant the random pattern leaves less
+    // field elsewhere on the plate than the regular one (5.16 against 3.72 dB
+    // in the paper). Judged by the verification (the field the placed
+    // exciters produce), not by the search's own objective: a search that
+    // returned its start, or one that improved only its model, fails.
+    auto read = [](const char *name) {
+        const std::filesystem::path scene = std::filesystem::path(HAPTIC_SOURCE_DIR) / "scenes" / name;
+        std::FILE *f = std::fopen(scene.c_str(), "rb");
+        std::string text;
+        char buf[4096];
+        size_t n;
+        while (f && (n = std::fread(buf, 1, sizeof buf, f)) > 0)
+            text.append(buf, n);
+        if (f)
+            std::fclose(f);
+        return input_of(text, name);
+    };
+    pipeline::CalibrationInput random = read("paper-fig4-random.toml");
+    random.exciters.iterations = 400;  // a shorter search than the scene's
+    const pipeline::CalibrationResult r = pipeline::calibrate(random);
+    const pipeline::CalibrationResult g = pipeline::calibrate(read("paper-fig4-regular.toml"));
+    ASSERT_EQ(r.verification.foci.size(), 1u);
+    ASSERT_EQ(g.verification.foci.size(), 1u);
+    EXPECT_NE(r.placement.chosen, r.placement.regular);
+    EXPECT_GT(r.verification.foci[0].field_contrast_db, g.verification.foci[0].field_contrast_db + 1.0)
+        << "random " << r.verification.foci[0].field_contrast_db << " dB, regular "
+        << g.verification.foci[0].field_contrast_db << " dB";
 }
