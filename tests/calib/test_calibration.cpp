@@ -1,6 +1,7 @@
 // The calibration pipeline end to end on a small, fast scene, the scene's
 // calibration sections (every key, every error path), the refusal of
 // impossible scenes, and the Fig. 4 placement against the regular pattern.
+#include "engine/simulation.h"
 #include "pipeline/calibrate.h"
 #include "scene/calibration_input.h"
 #include "scene/toml_fields.h"
@@ -241,6 +242,28 @@ TEST(Calibration, EndToEndEveryFocusForms)
         EXPECT_NEAR(fi.lead_time_s, r.signals[f].focus_delay_s, 2.0 / 1200);
     }
     EXPECT_DOUBLE_EQ(haptic_table_force_full_scale_n(&t), in.exciters.force_full_scale_n);
+    // An independent check of the level: the plate simulated directly (no
+    // transfer matrix, no convolution) under the table's counts for focus 0,
+    // read as the table format defines them (force_full_scale_n at 32767).
+    {
+        engine::Simulation sim(in.plate, pipeline::single_core_options(in));
+        const size_t frames = t.samples_per_signal, C = t.channel_count;
+        const int16_t *s0 = haptic_table_signal(&t, 0);
+        for (size_t c = 0; c < C; c++) {
+            std::vector<double> x(frames);
+            for (size_t n = 0; n < frames; n++)
+                x[n] = s0[n * C + c] / 32767.0 * haptic_table_force_full_scale_n(&t);
+            const size_t src = sim.add_source(r.exciters[c].x_m, r.exciters[c].y_m);
+            sim.set_source_signal(src, pipeline::resample(x, t.sample_rate_hz, 1.0 / sim.time_step_s()));
+        }
+        const pipeline::Point at = in.foci.points[0].at;
+        sim.add_receiver(at.x_m, at.y_m);
+        sim.run(sim.steps_for(static_cast<double>(frames) / t.sample_rate_hz + 0.01));
+        double peak = 0;
+        for (double w : sim.traces()[0])
+            peak = std::max(peak, std::abs(w));
+        EXPECT_NEAR(peak / 10e-6, 1.0, 0.005) << "directly simulated focal peak " << peak << " m";
+    }
     pipeline::Verification again = pipeline::verify_signals(in, r.exciters, signals, t.sample_rate_hz);
     for (size_t f = 0; f < 4; f++)
         EXPECT_DOUBLE_EQ(again.foci[f].peak_m, r.verification.foci[f].peak_m);
