@@ -9,7 +9,7 @@
 # usage: study_design.sh CALIBGEN SOURCE_DIR MPIEXEC WORK_DIR
 set -uo pipefail
 calibgen=$1 src=$2 mpiexec=$3 work=$4
-sweep=$src/scenes/test-study-small-sweep.toml
+sweep=$src/scenes/studies/test-study-small-sweep.toml
 # Open MPI refuses root unless told (test machines and containers run as root).
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 # No network interfaces needed between ranks on one machine.
