@@ -3,6 +3,7 @@
 #include "app/commands.h"
 #include "app/progress.h"
 #include "engine/effects/effects_report.h"
+#include "engine/modes.h"
 #include "model/cost_model.h"
 #include "model/error_model.h"
 #include "model/resources.h"
@@ -213,8 +214,24 @@ bool all_good(const pipeline::Verification &v)
     return true;
 }
 
+// `--modes N` is checked with the scene, before the calibration runs: a count
+// the grid allows, and the eigensolver's memory within the machine's.
+void check_modes_fit(const std::string &path, const engine::PlateOperator &plate, int count, const model::Limits &limits)
+{
+    if (count < 1 || std::size_t(count) >= plate.unknown_count())
+        throw std::runtime_error("--modes " + std::to_string(count) + ": must be from 1 to " +
+                                 std::to_string(plate.unknown_count() - 1) + " (the nodes free to move on " + path + ")");
+    const double mb = 1024.0 * 1024.0;
+    const double predicted_mb = model::current_rss_mb() + engine::lowest_modes_bytes(plate.unknown_count(), count) / mb;
+    if (!(predicted_mb <= limits.memory_mb))
+        throw std::runtime_error(path + ": --modes " + std::to_string(count) + " refused: the eigensolver is predicted to need " +
+                                 fmt("%.0f MB", predicted_mb) + ", over this machine's " + fmt("%.0f MB", limits.memory_mb) +
+                                 " (" + limits.memory_source + ")");
+}
+
 struct CalibrateArgs {
     std::string scene, table, report;
+    int modes = 0;  // the plate's lowest modes in the report (0: none, nothing computed)
     bool quiet = false;
     bool dry_run = false;
     LimitArgs limits;
@@ -226,8 +243,12 @@ int run_calibrate(const CalibrateArgs &a)
         return dry_run(a.scene, a.limits);
     if (a.table.empty())
         throw std::runtime_error("calibrate: --output TABLE.htab is required (unless --dry-run)");
+    if (a.modes != 0 && a.report.empty())
+        throw std::runtime_error("calibrate: --modes shows the modes in the report: give --report DIR too");
     const auto t0 = Clock::now();
     pipeline::CalibrationInput in = input_from_scene(a.scene, a.limits, false);
+    if (a.modes != 0)
+        check_modes_fit(a.scene, *in.plate, a.modes, a.limits.limits());
     Progress progress(a.quiet);
     const auto &g = in.plate->grid();
     progress.note("scene " + in.scene_name + ": grid " + std::to_string(g.nx) + " x " + std::to_string(g.ny) +
@@ -252,7 +273,16 @@ int run_calibrate(const CalibrateArgs &a)
     if (!a.quiet)
         print_summary(r.verification, in, true);
     if (!a.report.empty()) {
+        std::optional<engine::PlateModes> modes;
+        if (a.modes != 0) {
+            const auto tm = Clock::now();
+            modes = engine::lowest_modes(*in.plate, a.modes);
+            progress.note("modes: " + std::to_string(a.modes) + " lowest, " + fmt("%.4g", modes->frequency_hz.front()) +
+                          " to " + fmt("%.4g Hz", modes->frequency_hz.back()) + " in " +
+                          fmt("%.2f s", std::chrono::duration<double>(Clock::now() - tm).count()));
+        }
         report::ReportContext ctx;
+        ctx.modes = modes ? &*modes : nullptr;
         ctx.input = &in;
         ctx.result = &r;
         ctx.verification = &r.verification;
@@ -400,6 +430,7 @@ void register_calibrate(CLI::App &app, int &exit_code)
     cmd->add_option("-o,--output", a->table, "Table to write (.htab); required unless --dry-run");
     cmd->add_flag("--dry-run", a->dry_run, "Print the chosen setting, predicted error, time and memory; run nothing");
     cmd->add_option("--report", a->report, "Directory for metrics.json and index.html");
+    cmd->add_option("--modes", a->modes, "Also show the plate's N lowest eigenmodes in the report (as `calibgen modes`)");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary on stderr");
     add_limit_options(cmd, a->limits);
     cmd->callback([a, &exit_code] { exit_code = run_calibrate(*a); });

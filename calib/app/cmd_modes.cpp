@@ -6,7 +6,8 @@
 #include "io/atomic_file.h"
 #include "io/format.h"
 #include "model/resources.h"
-#include "report/plot.h"
+#include "report/image.h"
+#include "report/mode_image.h"
 #include "scene/scene.h"
 
 #include <unistd.h>
@@ -36,28 +37,9 @@ struct ModesArgs {
     std::optional<double> max_memory_mb;
 };
 
-// A signed mode shape (max |w| = 1) as a PNG: blue (-1), white (0), red
-// (+1), a diverging map so the nodal lines are the white ones; y up, each
-// node a square of pixels so the image is ~400 px across.
 void write_mode_png(const std::string &path, const std::vector<double> &field, int nodes_x, int nodes_y)
 {
-    const int px = std::max(1, 400 / std::max(nodes_x, nodes_y));
-    report::Image img;
-    img.width = nodes_x * px;
-    img.height = nodes_y * px;
-    img.rgb.resize(std::size_t(img.width) * std::size_t(img.height) * 3);
-    for (int y = 0; y < img.height; ++y)
-        for (int x = 0; x < img.width; ++x) {
-            const int i = x / px, j = nodes_y - 1 - y / px;
-            const double v = std::clamp(field[std::size_t(j) * std::size_t(nodes_x) + std::size_t(i)], -1.0, 1.0);
-            const double fade = 1 - std::abs(v);  // white at 0
-            const report::Color full = v >= 0 ? report::Color{178, 24, 43} : report::Color{33, 102, 172};
-            std::uint8_t *p = &img.rgb[(std::size_t(y) * std::size_t(img.width) + std::size_t(x)) * 3];
-            p[0] = std::uint8_t(std::lround(full.r + fade * (255 - full.r)));
-            p[1] = std::uint8_t(std::lround(full.g + fade * (255 - full.g)));
-            p[2] = std::uint8_t(std::lround(full.b + fade * (255 - full.b)));
-        }
-    const std::vector<std::uint8_t> bytes = report::encode_png(img);
+    const std::vector<std::uint8_t> bytes = report::encode_png(report::mode_shape_image(field, nodes_x, nodes_y));
     io::write_file_atomic(path, std::string_view(reinterpret_cast<const char *>(bytes.data()), bytes.size()));
 }
 
@@ -131,7 +113,7 @@ int run_modes(const ModesArgs &a)
             const double rate = modes.decay_rate_1_s[i];
             out << c + 1 << io::fmt(",%.9g", modes.frequency_hz[i]) << io::fmt(",%.9g", modes.eigenvalue_rad2_s2[i])
                 << (omega > 0 ? io::fmt(",%.4g", ppw) : std::string(",")) << io::fmt(",%.6g", rate)
-                << (rate > 0 ? io::fmt(",%.6g", 3 * std::log(10.0) / rate) : std::string(",")) << ','
+                << (rate > 0 ? io::fmt(",%.6g", engine::t60_of_decay_rate_s(rate)) : std::string(",")) << ','
                 << engine::parity_name(modes.parity_x[i]) << ',' << engine::parity_name(modes.parity_y[i]) << "\n";
         }
     });

@@ -3,6 +3,7 @@
 #include "io/atomic_file.h"
 #include "physics/dispersion.h"
 #include "report/field_image.h"
+#include "report/modes_section.h"
 #include "report/plot.h"
 
 #include <toml++/toml.h>
@@ -117,6 +118,8 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                                            {"verification", s.verification_s},
                                            {"total", c.total_s}});
     }
+    if (c.modes)
+        root.insert("modes", modes_json(*c.modes));
     root.insert("peak_rss_mb", c.peak_rss_mb);
     std::ostringstream os;
     os << toml::json_formatter{root} << "\n";
@@ -436,7 +439,10 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     h << "<h2>Displacement at the foci</h2><div class='grid'>";
     for (size_t f = 0; f < v.traces.size(); f++)
         h << "<figure class='cell'>" << traces_svg(c, f) << "</figure>";
-    h << "</div><h2>Dispersion</h2><figure>" << dispersion_svg(c) << "</figure></body></html>\n";
+    h << "</div>";
+    if (c.modes)
+        h << modes_html(*c.modes, *in.plate);
+    h << "<h2>Dispersion</h2><figure>" << dispersion_svg(c) << "</figure></body></html>\n";
     io::write_file_atomic(dir + "/index.html", h.str());
 }
 

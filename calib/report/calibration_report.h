@@ -1,7 +1,8 @@
 // What `calibgen calibrate` and `calibgen verify` leave in the report
-// directory: metrics.json (machine-readable, key names fixed by issue #4) and
+// directory: metrics.json (machine-readable, keys listed in docs/report.md) and
 // index.html (self-contained: inline SVG and PNG data URIs, opens anywhere).
 #pragma once
+#include "engine/modes.h"
 #include "pipeline/calibrate.h"
 
 #include <string>
@@ -16,6 +17,7 @@ struct ReportContext {
     std::string table_path;
     std::string scene_path;
     std::string mode = "table";  // "table" or "drive" (verify --drive)
+    const engine::PlateModes *modes = nullptr;  // `calibrate --modes N`: the plate's lowest modes
     double peak_rss_mb = 0;
     double total_s = 0;
 };

@@ -1,6 +1,7 @@
 // `calibgen modes` as a user runs it: the CSV and the shape images of a
 // small scene (checked against the library on the same scene), and bad input
-// refused in one line with a non-zero exit and nothing written.
+// refused in one line with a non-zero exit and nothing written. And the same
+// modes in the report of `calibgen calibrate --modes N`.
 #include "engine/modes.h"
 #include "scene/scene.h"
 
@@ -46,10 +47,12 @@ protected:
     }
     void TearDown() override { fs::remove_all(dir_); }
 
-    Outcome calibgen(const std::string &args) const
+    Outcome calibgen(const std::string &args) const { return run("modes " + args); }
+    Outcome run(const std::string &command_and_args) const
     {
         const fs::path err = dir_ / "stderr.txt";
-        const std::string cmd = "timeout -s KILL 60 \"" HAPTIC_CALIBGEN "\" modes " + args + " 2> \"" + err.string() + "\"";
+        const std::string cmd =
+            "timeout -s KILL 120 \"" HAPTIC_CALIBGEN "\" " + command_and_args + " 2> \"" + err.string() + "\"";
         const int status = std::system(cmd.c_str());
         Outcome r;
         if (WIFEXITED(status))
@@ -151,4 +154,55 @@ TEST_F(ModesCli, RefusesBadInputInOneLine)
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_NE(r.err.find("cannot write"), std::string::npos) << r.err;
+}
+
+// The report's modes are the library's modes of the calibration's own plate
+// (same grid), in metrics.json and as images in index.html; --modes is checked
+// before the calibration runs.
+TEST_F(ModesCli, CalibrateReportShowsTheLowestModes)
+{
+    const std::string scene = std::string(HAPTIC_SOURCE_DIR) + "/scenes/test-study-small.toml";
+    const fs::path table = dir_ / "t.htab", report = dir_ / "r";
+    const Outcome r = run("calibrate -q \"" + scene + "\" -o \"" + table.string() + "\" --report \"" + report.string() +
+                          "\" --modes 4");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const calib::scene::Scene sc = calib::scene::load_scene(scene);
+    const calib::engine::PlateModes modes = calib::engine::lowest_modes(*calib::scene::build_plate(sc).plate, 4);
+    const std::string json = read_text(report / "metrics.json");
+    const std::size_t at = json.find("\"modes\"");
+    ASSERT_NE(at, std::string::npos) << json;
+    std::size_t pos = at;
+    for (std::size_t c = 0; c < 4; ++c) {
+        pos = json.find("\"frequency_hz\"", pos);
+        ASSERT_NE(pos, std::string::npos) << c;
+        pos = json.find(':', pos) + 1;
+        EXPECT_NEAR(std::stod(json.substr(pos, 40)), modes.frequency_hz[c], 1e-9 * modes.frequency_hz[c]) << c;
+    }
+    EXPECT_EQ(json.find("\"frequency_hz\"", pos), std::string::npos);  // four, no more
+    const std::string html = read_text(report / "index.html");
+    EXPECT_NE(html.find("<h2>Plate modes</h2>"), std::string::npos);
+    std::size_t images = 0;
+    for (std::size_t p = html.find("<img alt='mode "); p != std::string::npos; p = html.find("<img alt='mode ", p + 1))
+        ++images;
+    EXPECT_EQ(images, 4u);
+
+    // Without --modes nothing is computed and the report has no such section.
+    const fs::path plain = dir_ / "plain";
+    ASSERT_EQ(run("calibrate -q \"" + scene + "\" -o \"" + table.string() + "\" --report \"" + plain.string() + "\"")
+                  .exit_code,
+              0);
+    EXPECT_EQ(read_text(plain / "metrics.json").find("\"modes\""), std::string::npos);
+    EXPECT_EQ(read_text(plain / "index.html").find("Plate modes"), std::string::npos);
+
+    // Refused before the calibration, in one line, no table written.
+    fs::remove(table);
+    for (const auto &[args, what] : {std::pair<std::string, std::string>{" --modes 3", "give --report DIR too"},
+                                     {" --report \"" + report.string() + "\" --modes -1", "--modes -1: must be from 1"},
+                                     {" --report \"" + report.string() + "\" --modes 1000000", "--modes 1000000: must be from 1"}}) {
+        const Outcome bad = run("calibrate -q \"" + scene + "\" -o \"" + table.string() + "\"" + args);
+        EXPECT_EQ(bad.exit_code, 1) << args;
+        EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
+        EXPECT_NE(bad.err.find(what), std::string::npos) << bad.err;
+        EXPECT_FALSE(fs::exists(table)) << args;
+    }
 }
