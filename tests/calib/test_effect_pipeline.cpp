@@ -9,7 +9,7 @@
 // Mindlin operator's own stability bound, built separately; the arrival
 // times of a tone burst against the continuum group velocities of
 // physics/dispersion.h.
-#include "engine/effects/thick_plate.h"
+#include "engine/mindlin/mindlin_operator.h"
 #include "engine/simulation.h"
 #include "physics/dispersion.h"
 #include "pipeline/calibrate.h"
@@ -158,7 +158,7 @@ TEST(EffectPipeline, ThickPlateVariantUsesTheMindlinBound)
     o.courant = 0.9;
     o.thick_plate = true;
     Simulation sim(op, o);
-    const effects::MindlinOperator ref(op->params(), op->grid());
+    const mindlin::MindlinOperator ref(op->params(), op->grid());
     EXPECT_NEAR(sim.time_step_s(), 0.9 * ref.max_time_step(), 1e-9 * ref.max_time_step());
     EXPECT_GT(sim.time_step_s(), 1.5 * 0.9 * op->max_time_step());  // h < d: longer than Kirchhoff's
     EXPECT_EQ(sim.precision(), Precision::f64);
