@@ -1,5 +1,6 @@
 // What `calibgen calibrate` and `calibgen verify` leave in the report
-// directory: metrics.json (machine-readable, key names fixed by issue #4) and
+// directory: metrics.json (machine-readable, key names fixed: scripts and
+// docs/REPRODUCTION.md read them) and
 // index.html (self-contained: inline SVG and PNG data URIs, opens anywhere).
 #pragma once
 #include "pipeline/calibrate.h"
