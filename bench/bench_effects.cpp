@@ -8,7 +8,7 @@
 //   build/h-fx-bench/bench/bench_effects --benchmark_min_time=0.3
 //
 // - loss: the lossy kernel variant against the lossless one (compiled variants);
-// - finger, exciter: one EngineExtension hook on 4 nodes after the update;
+// - finger, exciter: one PointExtension hook on 4 nodes after the update;
 // - thick_plate: the Mindlin engine (3 fields, staggered, sparse rows) against
 //   the Kirchhoff engine (double both; also `x_off_per_second`, which counts
 //   the Mindlin engine's own, different time step).
@@ -16,7 +16,7 @@
 // instantiated at all, so it has nothing to cost.
 #include "engine/effects/exciter.h"
 #include "engine/effects/finger.h"
-#include "engine/effects/thick_plate.h"
+#include "engine/mindlin/mindlin_engine.h"
 #include "engine/plate_engine.h"
 
 #include <benchmark/benchmark.h>
@@ -28,6 +28,7 @@
 
 using namespace calib::engine;
 using namespace calib::engine::effects;
+using namespace calib::engine::mindlin;
 
 namespace {
 
@@ -110,7 +111,7 @@ void BM_Finger(benchmark::State &state)
     const int n = int(state.range(0));
     auto op = plate(n);
     auto on = engine<T>(op);
-    on->add_extension(std::make_unique<FingerExtension<T>>(*on, FingerSpec{0.005, 1000, 1, 0.41 * n * 0.002, 0.37 * n * 0.002}));
+    on->add_extension(std::make_unique<FingerExtension>(*on, FingerSpec{0.005, 1000, 1, 0.41 * n * 0.002, 0.37 * n * 0.002}));
     auto off = engine<T>(op);
     for (auto _ : state)
         on->step();
@@ -124,7 +125,7 @@ void BM_Exciter(benchmark::State &state)
     auto op = plate(n);
     auto on = engine<T>(op);
     ExciterSpec e{0.03, 1.07e5, 28, 3.0, true, 20};
-    auto ext = std::make_unique<ExciterExtension<T>>(*on, 0.23 * n * 0.002, 0.61 * n * 0.002, e);
+    auto ext = std::make_unique<ExciterExtension>(*on, 0.23 * n * 0.002, 0.61 * n * 0.002, e);
     ext->set_drive(std::vector<double>(1u << 20, 0.1));
     on->add_extension(std::move(ext));
     auto off = engine<T>(op);

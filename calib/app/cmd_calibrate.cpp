@@ -2,7 +2,7 @@
 // `calibgen verify SCENE TABLE --report DIR [--drive FILE.wav --expect T:ID,...]`.
 #include "app/commands.h"
 #include "app/progress.h"
-#include "engine/effects/effects_report.h"
+#include "report/effects_report.h"
 #include "engine/modes.h"
 #include "model/cost_model.h"
 #include "model/error_model.h"
@@ -257,9 +257,9 @@ int run_calibrate(const CalibrateArgs &a)
     {  // which effects run, and what leaving the others out costs (docs/effects.md)
         const double f_hi = pipeline::pulse_max_frequency_hz(in.pulse);
         const double f_lo = std::max(2 * in.pulse.centre_hz - f_hi, 0.25 * in.pulse.centre_hz);
-        for (const std::string &line : engine::effects::describe_effects(
-                 engine::effects::assess_effects(in.effects, in.plate->params(), f_lo, f_hi,
-                                                engine::effects::EffectSupport{true, true})))
+        for (const std::string &line :
+             report::describe_effects(report::assess_effects(in.effects, in.plate->params(), f_lo, f_hi,
+                                                             report::EffectSupport{true, true})))
             progress.note(line);
     }
     pipeline::CalibrationResult r = pipeline::calibrate(in, progress.callback());

@@ -8,11 +8,13 @@
 
 #include "engine/plate_kernels.h"
 #include "engine/plate_operator.h"
+#include "engine/point_field.h"
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace calib::engine {
@@ -37,24 +39,14 @@ private:
     unsigned saved_ = 0;
 };
 
-template <typename T>
-class PlateEngine;
-
 // An effect with a state of its own (finger, exciter model; engine/effects/)
-// acts after the bulk, edge and source update on a few nodes. It sees the new
-// field u^{n+1} (newest_field()) and the increments d^{n+1} = u^{n+1} - u^n
-// and d^n (newest_increment(), increment_before()), and may add to u^{n+1}
-// (add_displacement(), which keeps d^{n+1} consistent), scaled like a force
-// (force_gain()). An engine without extensions never calls a hook.
+// acts after the bulk, edge and source update on a few nodes, through the
+// point interface (point_field.h): it reads W from the new field u^{n+1} and
+// the increments d^{n+1} = u^{n+1} - u^n and d^n, and adds to u^{n+1}
+// (add_displacement(), which keeps d^{n+1} consistent). An engine without
+// extensions never calls a hook.
 template <typename T>
-class EngineExtension {
-public:
-    virtual ~EngineExtension() = default;
-    virtual void after_update(PlateEngine<T> &engine) = 0;
-};
-
-template <typename T>
-class PlateEngine {
+class PlateEngine final : public PointField {
 public:
     // Throws std::invalid_argument if the time step is not below the operator's
     // stability bound (unless options.skip_stability_check).
@@ -64,8 +56,10 @@ public:
     PlateEngine &operator=(const PlateEngine &) = delete;
 
     const PlateOperator &plate() const { return *op_; }
-    double time_step() const { return k_; }
+    double time_step() const override { return k_; }
     std::size_t steps_done() const { return steps_; }
+    // Whether step() runs its bulk update on an OpenMP team.
+    bool threaded() const { return bulk_threads_ > 1; }
 
     // Point force (N) with bilinear spreading; the receiver reads the
     // displacement with the same weights, which makes A->B equal B->A.
@@ -76,7 +70,13 @@ public:
     // Displacement (m) at a receiver for the current time level.
     double receiver_value(std::size_t receiver) const;
 
-    void add_extension(std::unique_ptr<EngineExtension<T>> ext) { extensions_.push_back(std::move(ext)); }
+    void add_extension(std::unique_ptr<PointExtension> ext) { extensions_.push_back(std::move(ext)); }
+
+    // The point interface of the extensions (point_field.h).
+    double lambda_max() const override { return op_->lambda_max_stiffness(); }
+    PointTaps couple(double x_m, double y_m, const char *effect) const override;
+    PointLevels read(const PointTaps &point) const override;
+    void apply(const PointTaps &point, double force_n) override;
 
     // One step: u^{n+1} and d^{n+1} from u^n and d^n.
     void step();
@@ -87,6 +87,10 @@ public:
 
     // Fields on the node grid, row-major (j, i), (ny+1) x (nx+1), metres.
     std::vector<double> displacement() const;
+    // Empty while every node of the newest level is finite; else what and
+    // where: the first non-finite node in row order, their count and extent.
+    std::string non_finite_report() const;
+    double w_at(int i, int j) const { return double(u_[j * stride_ + i]); }  // the newest level at node (i, j)
     // Sets u^n and u^{n-1} (values at fixed nodes are ignored).
     void set_state(const std::vector<double> &current, const std::vector<double> &previous);
 
@@ -162,7 +166,7 @@ private:
     std::array<double, 3> rigid_expected_{};
     std::array<std::array<double, 3>, 3> rigid_gram_inv_{};
     std::vector<PointTap> sources_, receivers_;
-    std::vector<std::unique_ptr<EngineExtension<T>>> extensions_;
+    std::vector<std::unique_ptr<PointExtension>> extensions_;
 };
 
 extern template class PlateEngine<float>;

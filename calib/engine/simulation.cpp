@@ -1,20 +1,16 @@
 #include "engine/simulation.h"
 
 #include "engine/effects/finger.h"
-#include "engine/effects/thick_plate.h"
+#include "engine/mindlin/mindlin_engine.h"
+#include "engine/spectrum.h"
+#include "io/format.h"
 
-#include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
-#include <cstring>
 #include <limits>
-#include <mutex>
 #include <stdexcept>
 #include <optional>
 #include <type_traits>
-
-#include <omp.h>
 
 #if defined(__SSE__) || defined(__x86_64__)
 #include <xmmintrin.h>
@@ -52,89 +48,7 @@ private:
     unsigned saved_ = 0;
 };
 
-// Whether PlateEngine::step() will run its bulk update on more than one
-// thread (the rule of PlateEngine::step_impl).
-bool engine_threads(const Grid &g, const EngineOptions &o)
-{
-    const long cells = long(std::max(0, g.nx - 3)) * long(std::max(0, g.ny - 3));
-    const int threads = o.threads > 0 ? o.threads : omp_get_max_threads();
-    return threads > 1 && std::size_t(cells) >= o.parallel_min_cells;
-}
-
-// True if any of n values is NaN or +-Inf: the exponent bits are all ones,
-// so adding the exponent's lowest bit to them carries into the sign bit. Pure
-// integer and/add/or, vectorized by `omp simd` for both widths (-O2's cost
-// model would leave it scalar: measured 1.6 ns per node, as much as a whole
-// step).
-template <typename T>
-bool any_non_finite(const T *p, int n)
-{
-    using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
-    constexpr int mantissa = sizeof(T) == 4 ? 23 : 52;
-    constexpr Bits exponent = sizeof(T) == 4 ? Bits(0x7f800000u) : Bits(0x7ff0000000000000ull);
-    Bits bad = 0;
-#pragma omp simd reduction(| : bad)
-    for (int i = 0; i < n; ++i) {
-        Bits b;
-        std::memcpy(&b, p + i, sizeof b);
-        bad |= (b & exponent) + (Bits(1) << mantissa);
-    }
-    return (bad >> (8 * sizeof(Bits) - 1)) != 0;
-}
-
-std::string fmt(const char *f, double a)
-{
-    char buf[64];
-    std::snprintf(buf, sizeof buf, f, a);
-    return buf;
-}
-
-// Limits OpenMP to this thread while an operator's stability bound is found:
-// Lanczos' sparse products go through Eigen, which forks a team per product;
-// on the loaded 2-core machine that made a 130 000-unknown Mindlin bound take
-// 3 s instead of 0.2 s (and the Kirchhoff one 1 s instead of 0.05 s).
-// omp_set_num_threads changes only the calling thread's setting.
-class SerialEigen {
-public:
-    SerialEigen() : saved_(omp_get_max_threads()) { omp_set_num_threads(1); }
-    ~SerialEigen() { omp_set_num_threads(saved_); }
-    SerialEigen(const SerialEigen &) = delete;
-    SerialEigen &operator=(const SerialEigen &) = delete;
-
-private:
-    int saved_;
-};
-
-// The Mindlin operator of a plate operator, built once (assembly + Lanczos
-// bound, computed here under the lock so the shared operator is read-only
-// afterwards) and shared by every simulation of that plate: the pipeline's
-// foci run in parallel on one PlateOperator. One entry: a calibration uses
-// one plate.
-std::shared_ptr<const effects::MindlinOperator> mindlin_of(const std::shared_ptr<const PlateOperator> &op)
-{
-    static std::mutex lock;
-    static std::weak_ptr<const PlateOperator> key;
-    static std::shared_ptr<const effects::MindlinOperator> value;
-    std::lock_guard<std::mutex> guard(lock);
-    if (value && key.lock() == op)
-        return value;
-    SerialEigen serial;
-    auto m = std::make_shared<effects::MindlinOperator>(op->params(), op->grid());
-    m->lambda_max();
-    key = op;
-    value = m;
-    return value;
-}
-
-// The value type an engine stores its field in.
-template <typename E>
-struct ValueOf {
-    using type = double;  // MindlinEngine
-};
-template <typename T>
-struct ValueOf<PlateEngine<T>> {
-    using type = T;
-};
+using io::fmt;
 
 }  // namespace
 
@@ -167,12 +81,11 @@ Simulation::Simulation(std::shared_ptr<const PlateOperator> op, const Simulation
     : op_(std::move(op)), options_(options)
 {
     if (options_.thick_plate) {
-        std::shared_ptr<const effects::MindlinOperator> m;
-        try {
-            m = mindlin_of(op_);
-        } catch (const std::invalid_argument &e) {
-            throw std::invalid_argument(std::string("thick_plate: ") + e.what());
-        }
+        std::shared_ptr<const mindlin::MindlinOperator> m = options_.thick_plate_operator;
+        if (!m)
+            m = std::make_shared<const mindlin::MindlinOperator>(op_->params(), op_->grid());
+        else if (m->grid().nx != op_->grid().nx || m->grid().ny != op_->grid().ny || m->grid().h != op_->grid().h)
+            throw std::invalid_argument("thick_plate: the Mindlin operator is of another grid than the plate");
         options_.precision = Precision::f64;  // the Mindlin engine is double only
         if (options_.time_step_s > 0)
             k_ = options_.time_step_s;  // MindlinEngine checks it against its own bound
@@ -180,7 +93,7 @@ Simulation::Simulation(std::shared_ptr<const PlateOperator> op, const Simulation
             throw std::invalid_argument("courant factor must lie in (0, 1)");
         else
             k_ = options_.courant * m->max_time_step();
-        engine_ = std::make_unique<effects::MindlinEngine>(std::move(m), k_);
+        engine_ = std::make_unique<mindlin::MindlinEngine>(std::move(m), k_);
         return;
     }
     SerialEigen serial;  // for the bound, found here on first use
@@ -207,18 +120,10 @@ std::size_t Simulation::add_finger(const effects::FingerSpec &spec)
 {
     std::visit(
         [&](auto &e) {
-            using E = std::remove_reference_t<decltype(*e)>;
-            if constexpr (std::is_same_v<E, effects::MindlinEngine>) {
-                const std::size_t f = e->add_finger(spec);
-                const effects::MindlinEngine *m = e.get();
-                finger_force_.push_back([m, f] { return m->finger_force_n(f); });
-            } else {
-                using T = typename E::value_type;
-                auto ext = std::make_unique<effects::FingerExtension<T>>(*e, spec);
-                const effects::FingerExtension<T> *x = ext.get();
-                e->add_extension(std::move(ext));
-                finger_force_.push_back([x] { return x->last_force_n(); });
-            }
+            auto ext = std::make_unique<effects::FingerExtension>(*e, spec);
+            const effects::FingerExtension *x = ext.get();
+            e->add_extension(std::move(ext));
+            finger_force_.push_back([x] { return x->last_force_n(); });
         },
         engine_);
     finger_forces_.emplace_back();
@@ -270,86 +175,21 @@ void Simulation::run(std::size_t steps)
     for (auto &t : traces_)
         t.reserve(t.size() + steps);
     const Grid &g = op_->grid();
-    const double h = g.h;
     const std::size_t interval = options_.field_check_interval;
     auto fail = [&](std::string msg) {
         failure_ = std::move(msg);
         throw std::runtime_error(failure_);
     };
-    // Scans the newest field; on a non-finite value reports the first node (in
-    // row order), how many there are and their extent, and the last clean scan.
-    auto scan_kirchhoff = [&](auto &e, const std::string &detected_by) {
-        const auto *f = e->newest_field();
-        const std::ptrdiff_t stride = e->stride();
-        bool bad = false;
-        for (int j = 0; j <= g.ny && !bad; ++j)
-            bad = any_non_finite(f + j * stride, g.nx + 1);
-        const std::size_t n = e->steps_done();
-        if (!bad) {
-            last_clean_scan_ = n;
-            return;
-        }
-        int fi = -1, fj = -1, i0 = g.nx, i1 = 0, j0 = g.ny, j1 = 0;
-        std::size_t count = 0;
-        double first = 0;
-        for (int j = 0; j <= g.ny; ++j)
-            for (int i = 0; i <= g.nx; ++i) {
-                const double v = double(f[j * stride + i]);
-                if (std::isfinite(v))
-                    continue;
-                if (count++ == 0) {
-                    fi = i;
-                    fj = j;
-                    first = v;
-                }
-                i0 = std::min(i0, i), i1 = std::max(i1, i), j0 = std::min(j0, j), j1 = std::max(j1, j);
-            }
-        std::string msg = "simulation diverged: non-finite displacement (" + fmt("%g", first) + ") at step " +
-                          std::to_string(n - 1) + " (t = " + fmt("%.6g", double(n) * k_) + " s), first at node (i, j) = (" +
-                          std::to_string(fi) + ", " + std::to_string(fj) + "), (x, y) = (" + fmt("%.6g", fi * h) + ", " +
-                          fmt("%.6g", fj * h) + ") m; " + std::to_string(count) + " non-finite nodes in i " +
-                          std::to_string(i0) + ".." + std::to_string(i1) + ", j " + std::to_string(j0) + ".." +
-                          std::to_string(j1) + "; detected by " + detected_by + "; the whole field was finite after step " +
-                          (last_clean_scan_ == 0 ? std::string("0 (the start)") : std::to_string(last_clean_scan_ - 1));
-        fail(msg);
-    };
-    // The Mindlin state [w | psi_x | psi_y]: the same scan over all unknowns;
-    // located at the first non-finite w node, else at the first rotation.
-    auto scan_mindlin = [&](const effects::MindlinEngine &e, const std::string &detected_by) {
-        const Eigen::VectorXd &q = e.state();
-        const std::size_t n = e.steps_done();
-        if (!any_non_finite(q.data(), int(q.size()))) {
-            last_clean_scan_ = n;
-            return;
-        }
-        const effects::MindlinOperator &m = e.plate();
-        std::size_t count = 0;
-        Eigen::Index first = -1;
-        for (Eigen::Index u = 0; u < q.size(); ++u)
-            if (!std::isfinite(q[u]) && count++ == 0)
-                first = u;
-        std::string where;
-        for (int j = 0; j <= g.ny && where.empty(); ++j)
-            for (int i = 0; i <= g.nx && where.empty(); ++i) {
-                const std::ptrdiff_t u = m.w_index(i, j);
-                if (u >= 0 && !std::isfinite(q[u]))
-                    where = "first w at node (i, j) = (" + std::to_string(i) + ", " + std::to_string(j) + "), (x, y) = (" +
-                            fmt("%.6g", i * h) + ", " + fmt("%.6g", j * h) + ") m";
-            }
-        if (where.empty())
-            where = "first at rotation unknown " + std::to_string(first - Eigen::Index(m.w_count())) + " (w still finite)";
-        fail("simulation diverged (thick_plate): non-finite value (" + fmt("%g", q[first]) + ") at step " +
-             std::to_string(n - 1) + " (t = " + fmt("%.6g", double(n) * k_) + " s), " + where + "; " +
-             std::to_string(count) + " non-finite unknowns of " + std::to_string(q.size()) + "; detected by " +
-             detected_by + "; the whole state was finite after step " +
-             (last_clean_scan_ == 0 ? std::string("0 (the start)") : std::to_string(last_clean_scan_ - 1)));
-    };
+    // Scans the newest field (or state); on a non-finite value the engine
+    // reports what and where, and this adds who found it and the last clean scan.
     auto scan = [&](auto &e, const std::string &detected_by) {
-        using E = std::remove_reference_t<decltype(*e)>;
-        if constexpr (std::is_same_v<E, effects::MindlinEngine>)
-            scan_mindlin(*e, detected_by);
-        else
-            scan_kirchhoff(e, detected_by);
+        const std::string what = e->non_finite_report();
+        if (what.empty()) {
+            last_clean_scan_ = e->steps_done();
+            return;
+        }
+        fail("simulation diverged: " + what + "; detected by " + detected_by + "; the whole field was finite after step " +
+             (last_clean_scan_ == 0 ? std::string("0 (the start)") : std::to_string(last_clean_scan_ - 1)));
     };
     // Step index (0-based) of the state just computed, against the lattice schedule.
     auto n_done_ok = [&](std::size_t done) {
@@ -357,30 +197,17 @@ void Simulation::run(std::size_t steps)
         return s >= lattice_first_ && (s - lattice_first_) % lattice_interval_ == 0;
     };
     auto record = [&](auto &e) {
-        using E = std::remove_reference_t<decltype(*e)>;
         const int st = lattice_stride_;
         for (int j = 0; j <= g.ny; j += st)
-            for (int i = 0; i <= g.nx; i += st) {
-                if constexpr (std::is_same_v<E, effects::MindlinEngine>) {
-                    const std::ptrdiff_t u = e->plate().w_index(i, j);
-                    lattice_frames_.push_back(u >= 0 ? static_cast<float>(e->state()[u]) : 0.0f);
-                } else {
-                    lattice_frames_.push_back(static_cast<float>(e->newest_field()[j * e->stride() + i]));
-                }
-            }
+            for (int i = 0; i <= g.nx; i += st)
+                lattice_frames_.push_back(static_cast<float>(e->w_at(i, j)));
     };
     std::visit(
         [&](auto &e) {
-            using E = std::remove_reference_t<decltype(*e)>;
-            constexpr bool mindlin = std::is_same_v<E, effects::MindlinEngine>;
+            using T = typename std::remove_reference_t<decltype(*e)>::value_type;
             std::optional<ScopedFlushDenormals> ftz_team;
             std::optional<ThreadFlushDenormals> ftz_thread;
-            bool team = false;
-            if constexpr (mindlin)
-                team = e->plate().unknown_count() > 200000;  // MindlinEngine::step's OpenMP threshold
-            else
-                team = engine_threads(g, options_.engine);
-            if (team)
+            if (e->threaded())
                 ftz_team.emplace();
             else
                 ftz_thread.emplace();
@@ -389,7 +216,6 @@ void Simulation::run(std::size_t steps)
                 for (std::size_t s = 0; s < signals_.size(); ++s) {
                     const std::size_t idx = now - signal_start_[s];
                     const double force = idx < signals_[s].size() ? signals_[s][idx] : 0.0;
-                    using T = typename ValueOf<E>::type;
                     if (!std::isfinite(force) || std::abs(force) > double(std::numeric_limits<T>::max()))
                         fail("non-finite force (" + fmt("%g", force) + " N" +
                              (std::isfinite(force) ? std::string(", beyond the range of ") + precision_name(options_.precision)
@@ -432,22 +258,7 @@ void Simulation::run(std::size_t steps)
 
 std::vector<double> Simulation::snapshot() const
 {
-    return std::visit(
-        [&](auto &e) {
-            using E = std::remove_reference_t<decltype(*e)>;
-            if constexpr (std::is_same_v<E, effects::MindlinEngine>) {
-                const Grid &g = op_->grid();
-                std::vector<double> w(std::size_t(g.nx + 1) * std::size_t(g.ny + 1), 0.0);
-                for (int j = 0; j <= g.ny; ++j)
-                    for (int i = 0; i <= g.nx; ++i)
-                        if (const std::ptrdiff_t u = e->plate().w_index(i, j); u >= 0)
-                            w[g.node(i, j)] = e->state()[u];
-                return w;
-            } else {
-                return e->displacement();
-            }
-        },
-        engine_);
+    return std::visit([](auto &e) { return e->displacement(); }, engine_);
 }
 
 void Simulation::record_lattice(int stride, std::size_t first_step, std::size_t interval)

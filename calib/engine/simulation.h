@@ -15,8 +15,10 @@
 // for its engine, so the Kirchhoff path pays nothing for the others):
 // the Kirchhoff PlateEngine<float> or <double>, or, with
 // SimulationOptions::thick_plate, the Mindlin engine
-// (engine/effects/thick_plate.h; double only, its own stability bound).
-// Effects composed per simulation: the finger (add_finger()).
+// (engine/mindlin/mindlin_engine.h; double only, its own stability bound).
+// Both offer the same members to run() and the point interface to the
+// effects (point_field.h). Effects composed per simulation: the finger
+// (add_finger()).
 #pragma once
 
 #include "engine/effects/effects.h"
@@ -32,9 +34,10 @@
 
 namespace calib::engine {
 
-namespace effects {
+namespace mindlin {
+class MindlinOperator;
 class MindlinEngine;
-}
+}  // namespace mindlin
 
 enum class Precision { f32, f64 };
 const char *precision_name(Precision p);
@@ -48,14 +51,17 @@ struct SimulationOptions {
     // exponent bits, measured in docs/engine.md ("Stability suite").
     std::size_t field_check_interval = 16;
     EngineOptions engine;
-    // Thick-plate effect: run the Mindlin engine built from the operator's
-    // plate params and grid instead of Kirchhoff. Double precision whatever
+    // Thick-plate effect: run the Mindlin engine on the operator's plate
+    // params and grid instead of Kirchhoff. Double precision whatever
     // `precision` says (precision() then reports f64); time step = courant x
     // the Mindlin bound (or time_step_s, checked against it); edges supported
-    // or clamped only, no loss (the constructor throws otherwise). The
-    // Mindlin operator (and its Lanczos bound) is built once per plate
-    // operator and shared by the simulations of that plate.
+    // or clamped only, no loss (the constructor throws otherwise).
     bool thick_plate = false;
+    // The Mindlin operator of this plate (assembly and Lanczos bound, the
+    // costly part): scene::build_plate makes it once for a thick-plate scene
+    // and every simulation made with these options shares it. Left empty, a
+    // thick-plate simulation builds its own.
+    std::shared_ptr<const mindlin::MindlinOperator> thick_plate_operator;
 };
 
 // Throws std::invalid_argument if k is not below the stability bound of the
@@ -115,7 +121,7 @@ private:
     SimulationOptions options_;
     double k_ = 0;
     std::variant<std::unique_ptr<PlateEngine<float>>, std::unique_ptr<PlateEngine<double>>,
-                 std::unique_ptr<effects::MindlinEngine>>
+                 std::unique_ptr<mindlin::MindlinEngine>>
         engine_;
     std::vector<std::function<double()>> finger_force_;  // reads the last step's force of each finger
     std::vector<std::vector<double>> finger_forces_;

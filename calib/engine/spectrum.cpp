@@ -3,12 +3,24 @@
 #include <Eigen/Dense>
 #include <Eigen/SparseCholesky>
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
 
 namespace calib::engine {
+
+SerialEigen::SerialEigen() : saved_(omp_get_max_threads())
+{
+    omp_set_num_threads(1);
+}
+
+SerialEigen::~SerialEigen()
+{
+    omp_set_num_threads(saved_);
+}
 
 double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag, int dense_limit)
 {

@@ -20,16 +20,6 @@ PulseShape parse_pulse_shape(const std::string &name)
     throw std::invalid_argument("unknown pulse shape '" + name + "' (known: hann_burst, gaussian_burst, ricker)");
 }
 
-const char *pulse_shape_name(PulseShape shape)
-{
-    switch (shape) {
-    case PulseShape::hann_burst: return "hann_burst";
-    case PulseShape::gaussian_burst: return "gaussian_burst";
-    case PulseShape::ricker: return "ricker";
-    }
-    return "?";
-}
-
 double pulse_duration_s(const PulseSpec &p)
 {
     // Ricker (1 - 2u^2) exp(-u^2), u = pi f (t - T/2): below 1.2e-4 of its peak for |u| >= 3.5.

@@ -21,7 +21,6 @@ struct PulseSpec {
 
 // "hann_burst", ... -> shape; throws std::invalid_argument listing the known names.
 PulseShape parse_pulse_shape(const std::string &name);
-const char *pulse_shape_name(PulseShape shape);
 
 // Support [0, duration) outside which the pulse is zero (or below -40 dB for Gaussian shapes).
 double pulse_duration_s(const PulseSpec &p);

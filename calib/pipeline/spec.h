@@ -56,7 +56,7 @@ struct CalibrationSpec {
     std::string sample_format = "s16";
     double threshold_m = 5e-6;        // perception threshold (the seed's 5 um)
     bool dither = true;
-    std::optional<double> accuracy;   // target relative phase-velocity error (issue #6)
+    std::optional<double> accuracy;   // target relative phase-velocity error (docs/ACCURACY.md)
     double verify_tail_s = 0.1;       // verification runs this long after the drive ends
 };
 

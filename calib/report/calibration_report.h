@@ -1,5 +1,6 @@
 // What `calibgen calibrate` and `calibgen verify` leave in the report
-// directory: metrics.json (machine-readable, keys listed in docs/report.md) and
+// directory: metrics.json (machine-readable, keys listed in docs/report.md;
+// scripts and docs/REPRODUCTION.md read them) and
 // index.html (self-contained: inline SVG and PNG data URIs, opens anywhere).
 #pragma once
 #include "engine/modes.h"

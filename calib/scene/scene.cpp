@@ -4,6 +4,8 @@
 #include "scene/effects_section.h"
 #include "scene/toml_fields.h"
 
+#include "engine/mindlin/mindlin_operator.h"
+
 #include <filesystem>
 
 #include <cmath>
@@ -325,6 +327,17 @@ PlateSetup build_plate(const Scene &scene)
             throw SceneError(scene.file + ": simulation.time_step_s: " + e.what());
         }
         setup.options.time_step_s = *s.time_step_s;
+    }
+    // The thick plate runs on its own operator: built here, once, for every
+    // simulation of the scene.
+    if (scene.effects.thick_plate) {
+        try {
+            setup.options.thick_plate_operator =
+                std::make_shared<const engine::mindlin::MindlinOperator>(params, grid);
+        } catch (const std::invalid_argument &e) {
+            throw SceneError(scene.file + ": effects.thick_plate: " + e.what());
+        }
+        setup.options.thick_plate = true;
     }
     return setup;
 }

@@ -1,8 +1,9 @@
 // A scene file (TOML, SI units) describes one plate and how to simulate it.
-// One struct per section, one parse function per section (scene.cpp); issue
-// #4 adds [active_area], [exciters], [foci], [pulse], [calibration] and
-// [effects] the same way: a sub-struct here, a parser, a line in the section
-// table. Errors are one line naming the file and the key.
+// One struct per section, one parse function per section: [plate] and
+// [simulation] in scene.cpp, [active_area], [exciters], [foci], [pulse] and
+// [calibration] in calibration_sections.cpp, [effects] in effects_section.cpp;
+// a new section is a sub-struct here, a parser, a line in the section table.
+// Errors are one line naming the file and the key.
 #pragma once
 
 #include "engine/effects/effects.h"
@@ -64,9 +65,12 @@ struct Scene {
 Scene load_scene(const std::string &path);
 Scene parse_scene(std::string_view toml_text, const std::string &file_name);
 
-// The operator and the simulation options a scene asks for. Throws
-// SceneError naming the key (loss that cannot be fitted, a forced time step
-// beyond the stability bound, a grid too large).
+// The operator and the simulation options a scene asks for: the Kirchhoff
+// operator, and with [effects] thick_plate the Mindlin operator too
+// (options.thick_plate, options.thick_plate_operator: the simulations then
+// run the Mindlin engine). Throws SceneError naming the key (loss that cannot
+// be fitted, a forced time step beyond the stability bound, a grid too large,
+// a thick plate with free edges or loss).
 struct PlateSetup {
     std::shared_ptr<const engine::PlateOperator> plate;
     engine::SimulationOptions options;

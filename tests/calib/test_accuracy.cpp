@@ -8,6 +8,7 @@
 #include "scene/scene.h"
 #include "model/error_model.h"
 #include "study/accuracy.h"
+#include "scene_text.h"
 
 #include <gtest/gtest.h>
 
@@ -84,16 +85,7 @@ TEST(Accuracy, FloatMeasuresLikeDouble)
 
 TEST(Accuracy, ChosenSettingMeetsTheTargetAndIsNotWasteful)
 {
-    const char *text = R"(
-[plate]
-size_m = [0.3, 0.2]
-thickness_m = 0.002
-material = "acrylic"
-edges = "clamped"
-[simulation]
-f_max_hz = 600
-precision = "float"
-)";
+    const std::string text = scene_text::load("tiny.toml");
     scene::Scene s = scene::parse_scene(text, "tiny.toml");
     for (double target : {0.03, 0.01}) {
         const model::Choice c = model::choose_points_per_wavelength(s, target);
@@ -120,28 +112,7 @@ precision = "float"
 
 TEST(Accuracy, SceneTargetSetsTheGrid)
 {
-    const char *text = R"(
-[plate]
-size_m = [0.5, 0.5]
-thickness_m = 0.002
-material = "glass"
-edges = "clamped"
-[simulation]
-points_per_wavelength = 6
-[active_area]
-rect_m = [0.05, 0.05, 0.45, 0.45]
-frame_margin_m = 0.01
-[exciters]
-count = 8
-[foci]
-points_m = [[0.30, 0.30]]
-[pulse]
-centre_hz = 325
-cycles = 2
-[calibration]
-window_s = 0.2
-accuracy = 0.005
-)";
+    const std::string text = scene_text::load("target.toml");
     scene::Scene s = scene::parse_scene(text, "target.toml");
     const auto c = model::apply_accuracy_target(s);
     ASSERT_TRUE(c.has_value());

@@ -70,8 +70,8 @@ Driven drive_sine(double density, double thickness, double f, const ExciterSpec 
     d.k = std::min(0.9 * op->max_time_step(), 1.0 / (f * 200));
     PlateEngine<double> eng(op, d.k);
     const double x = 0.113, y = 0.087;
-    auto ext = std::make_unique<ExciterExtension<double>>(eng, x, y, e);
-    ExciterExtension<double> *ex = ext.get();
+    auto ext = std::make_unique<ExciterExtension>(eng, x, y, e);
+    ExciterExtension *ex = ext.get();
     eng.add_extension(std::move(ext));
     const std::size_t r = eng.add_receiver(x, y);
     const std::size_t steps = std::size_t(duration / d.k);

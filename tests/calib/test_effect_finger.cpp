@@ -106,8 +106,8 @@ std::vector<double> run_mode(const SsPlate &s, const FingerSpec &f, std::size_t 
         for (int i = 0; i <= nx; ++i)
             shape[s.op->grid().node(i, j)] = 1e-6 * mode_shape(1, 1, i, j);
     eng.set_state(shape, shape);
-    auto ext = std::make_unique<FingerExtension<T>>(eng, f);
-    FingerExtension<T> *finger = ext.get();
+    auto ext = std::make_unique<FingerExtension>(eng, f);
+    FingerExtension *finger = ext.get();
     eng.add_extension(std::move(ext));
     double norm = 0;
     for (double v : shape)
@@ -258,13 +258,13 @@ TEST(EffectFinger, RefusesBadInput)
     f.x_m = 0.05;
     f.y_m = 0.05;
     f.mass_kg = -1;
-    EXPECT_THROW(FingerExtension<double>(eng, f), std::invalid_argument);
+    EXPECT_THROW(FingerExtension(eng, f), std::invalid_argument);
     f.mass_kg = 0.001;
     f.stiffness_n_m = 1e12;  // far beyond what the time step allows
-    EXPECT_THROW(FingerExtension<double>(eng, f), std::invalid_argument);
+    EXPECT_THROW(FingerExtension(eng, f), std::invalid_argument);
     f.stiffness_n_m = 0;
     f.x_m = 1.0;  // off the plate
-    EXPECT_THROW(FingerExtension<double>(eng, f), std::invalid_argument);
+    EXPECT_THROW(FingerExtension(eng, f), std::invalid_argument);
     f.x_m = 0;  // on the held edge only
-    EXPECT_THROW(FingerExtension<double>(eng, f), std::invalid_argument);
+    EXPECT_THROW(FingerExtension(eng, f), std::invalid_argument);
 }

@@ -9,12 +9,13 @@
 // Mindlin operator's own stability bound, built separately; the arrival
 // times of a tone burst against the continuum group velocities of
 // physics/dispersion.h.
-#include "engine/effects/thick_plate.h"
+#include "engine/mindlin/mindlin_operator.h"
 #include "engine/simulation.h"
 #include "physics/dispersion.h"
 #include "pipeline/calibrate.h"
 #include "scene/calibration_input.h"
 #include "test_plate_util.h"
+#include "scene_text.h"
 
 #include <gtest/gtest.h>
 
@@ -158,7 +159,7 @@ TEST(EffectPipeline, ThickPlateVariantUsesTheMindlinBound)
     o.courant = 0.9;
     o.thick_plate = true;
     Simulation sim(op, o);
-    const effects::MindlinOperator ref(op->params(), op->grid());
+    const mindlin::MindlinOperator ref(op->params(), op->grid());
     EXPECT_NEAR(sim.time_step_s(), 0.9 * ref.max_time_step(), 1e-9 * ref.max_time_step());
     EXPECT_GT(sim.time_step_s(), 1.5 * 0.9 * op->max_time_step());  // h < d: longer than Kirchhoff's
     EXPECT_EQ(sim.precision(), Precision::f64);
@@ -265,33 +266,7 @@ TEST(EffectPipeline, ThickPlateArrivalFollowsMindlinGroupVelocity)
 namespace {
 
 // A small acrylic plate at 2 kHz: four fixed exciters, one focus.
-const std::string finger_scene = R"(
-name = "test-effect-finger"
-[plate]
-size_m = [0.12, 0.1]
-thickness_m = 0.002
-material = "acrylic"
-edges = "simply_supported"
-[simulation]
-points_per_wavelength = 10
-precision = "double"
-[active_area]
-rect_m = [0.03, 0.03, 0.09, 0.07]
-frame_margin_m = 0
-[exciters]
-count = 4
-placement = "fixed"
-positions_m = [[0.01, 0.013], [0.107, 0.02], [0.015, 0.088], [0.112, 0.083]]
-[foci]
-points_m = [[0.055, 0.048]]
-[pulse]
-centre_hz = 2000
-cycles = 2
-[calibration]
-window_s = 0.02
-truncate_fraction = 0.5
-verify_tail_s = 0.005
-)";
+const std::string finger_scene = scene_text::load("effect-finger.toml");
 
 }  // namespace
 
@@ -332,37 +307,7 @@ TEST(EffectPipeline, FingerInVerificationDampsTheFocus)
 namespace {
 
 // Thick glass at f*d ~ 200 kHz mm: Kirchhoff is ~10 % fast here.
-const std::string thick_scene = R"(
-name = "test-effect-thick"
-[plate]
-size_m = [0.1, 0.08]
-thickness_m = 0.008
-material = "glass"
-edges = "simply_supported"
-[simulation]
-f_max_hz = 40000
-points_per_wavelength = 8
-precision = "double"
-[active_area]
-rect_m = [0.03, 0.025, 0.07, 0.055]
-frame_margin_m = 0
-[exciters]
-count = 4
-placement = "fixed"
-positions_m = [[0.008, 0.011], [0.092, 0.015], [0.011, 0.071], [0.094, 0.066]]
-[foci]
-points_m = [[0.046, 0.041]]
-[pulse]
-centre_hz = 25000
-cycles = 3
-[calibration]
-window_s = 0.0015
-truncate_fraction = 0.5
-output_rate_hz = 192000
-verify_tail_s = 0.0003
-[effects]
-thick_plate = true
-)";
+const std::string thick_scene = scene_text::load("effect-thick.toml");
 
 }  // namespace
 

@@ -1,7 +1,7 @@
 // [effects] in a scene: every key parsed, every bad key or value refused with
 // one line naming the file and the key; effects absent are off and cost
 // nothing; the effect report names what is on and what leaving out costs.
-#include "engine/effects/effects_report.h"
+#include "report/effects_report.h"
 #include "physics/dispersion.h"
 #include "physics/material.h"
 #include "scene/scene.h"
@@ -15,6 +15,7 @@
 
 using namespace calib::scene;
 using namespace calib::engine::effects;
+using namespace calib::report;
 
 namespace {
 

@@ -7,7 +7,7 @@
 // continuum dispersion (physics::mindlin_phase_velocity) and Kirchhoff.
 // Also: exact energy conservation (simply supported and clamped edges), the
 // scheme's own stability bound.
-#include "engine/effects/thick_plate.h"
+#include "engine/mindlin/mindlin_engine.h"
 #include "physics/dispersion.h"
 #include "test_plate_util.h"
 
@@ -18,7 +18,7 @@
 #include <random>
 
 using namespace plate_test;
-using namespace calib::engine::effects;
+using namespace calib::engine::mindlin;
 namespace physics = calib::physics;
 
 namespace {

@@ -42,9 +42,8 @@ double exciter_q(const ExciterSpec &e)
     return std::sqrt(e.stiffness_n_m * e.moving_mass_kg) / e.damping_n_s_m;
 }
 
-template <typename T>
-ExciterExtension<T>::ExciterExtension(const PlateEngine<T> &engine, double x_m, double y_m, const ExciterSpec &spec)
-    : spec_(spec), k_(engine.time_step()), point_(engine, x_m, y_m, "exciter")
+ExciterExtension::ExciterExtension(const PointField &engine, double x_m, double y_m, const ExciterSpec &spec)
+    : spec_(spec), k_(engine.time_step()), point_(engine.couple(x_m, y_m, "exciter"))
 {
     check_exciter(spec);
     // The suspension is explicit at the magnet: leapfrog needs (omega0 k)^2 =
@@ -54,8 +53,7 @@ ExciterExtension<T>::ExciterExtension(const PlateEngine<T> &engine, double x_m, 
         throw std::invalid_argument("exciter: resonance too high for the time step");
 }
 
-template <typename T>
-void ExciterExtension<T>::set_drive(std::vector<double> current_a)
+void ExciterExtension::set_drive(std::vector<double> current_a)
 {
     drive_ = std::move(current_a);
     n_ = 0;
@@ -63,26 +61,22 @@ void ExciterExtension<T>::set_drive(std::vector<double> current_a)
     forces_.reserve(drive_.size());
 }
 
-template <typename T>
-void ExciterExtension<T>::after_update(PlateEngine<T> &engine)
+void ExciterExtension::after_update(PointField &engine)
 {
-    const auto [wp, w, wm] = point_.read(engine);
+    const auto [wp, w, wm] = engine.read(point_);
     const double i = n_ < drive_.size() ? drive_[n_] : 0.0;
     ++n_;
     const double M = spec_.moving_mass_kg, c = spec_.damping_n_s_m, s = spec_.stiffness_n_m, k = k_;
     // M a = -s (z - W) - c/(2k) (k^2 a + 2 (z - z-) - W+ + W-) - Bl i, W+ = W+free - g M a.
     const double rhs = -s * (z_ - w) - c / (2 * k) * (2 * (z_ - z_prev_) - wp + wm) - spec_.force_factor_n_a * i;
-    const double a = rhs / (M + c * k / 2 + c * point_.g() * M / (2 * k));
+    const double a = rhs / (M + c * k / 2 + c * point_.g * M / (2 * k));
     const double force = -M * a;
     const double z_next = k * k * a + 2 * z_ - z_prev_;
     z_prev_ = z_;
     z_ = z_next;
-    point_.apply(engine, force);
+    engine.apply(point_, force);
     forces_.push_back(force);
 }
-
-template class ExciterExtension<float>;
-template class ExciterExtension<double>;
 
 namespace {
 

@@ -1,5 +1,5 @@
 // The exciter effect: an inertial electrodynamic exciter as a force source
-// with its own resonance, coupled to the plate at one point (EngineExtension),
+// with its own resonance, coupled to the plate at one point (PointExtension),
 // and the inverse filter that pre-compensates drive signals for it.
 //
 // State: the magnet's displacement z (moving mass M on suspension k, c). With
@@ -13,10 +13,8 @@
 #pragma once
 
 #include "engine/effects/effects.h"
-#include "engine/effects/point_coupling.h"
-#include "engine/plate_engine.h"
+#include "engine/point_field.h"
 
-#include <array>
 #include <complex>
 #include <cstddef>
 #include <vector>
@@ -30,13 +28,12 @@ double exciter_q(const ExciterSpec &e);  // infinite without damping
 // Throws std::invalid_argument naming the parameter if one is not usable.
 void check_exciter(const ExciterSpec &e);
 
-template <typename T>
-class ExciterExtension final : public EngineExtension<T> {
+class ExciterExtension final : public PointExtension {
 public:
-    ExciterExtension(const PlateEngine<T> &engine, double x_m, double y_m, const ExciterSpec &spec);
+    ExciterExtension(const PointField &engine, double x_m, double y_m, const ExciterSpec &spec);
     // current_a[n] is the coil current during the n-th step after this call.
     void set_drive(std::vector<double> current_a);
-    void after_update(PlateEngine<T> &engine) override;
+    void after_update(PointField &engine) override;
 
     // Force on the plate in every step since set_drive (N).
     const std::vector<double> &forces() const { return forces_; }
@@ -44,15 +41,12 @@ public:
 private:
     ExciterSpec spec_;
     double k_ = 0;
-    PointCoupling<T> point_;
+    PointTaps point_;
     double z_ = 0, z_prev_ = 0;
     std::vector<double> drive_;
     std::size_t n_ = 0;
     std::vector<double> forces_;
 };
-
-extern template class ExciterExtension<float>;
-extern template class ExciterExtension<double>;
 
 // Filters `signal` (sampled at rate_hz) by the regularised inverse of the
 // exciter's blocked transfer, C = conj(T) / (|T|^2 + eps^2) with eps set so

@@ -1,5 +1,6 @@
 // The finger effect: a point mass-spring-damper on the plate, applied as a
-// sparse hook after the bulk and edge update (EngineExtension).
+// sparse hook after the engine's update (PointExtension), on the Kirchhoff
+// and the Mindlin engine alike.
 //
 // With W = phi^T u the displacement at the point (bilinear weights phi, the
 // same as a receiver), the force on the plate at step n is
@@ -13,20 +14,16 @@
 #pragma once
 
 #include "engine/effects/effects.h"
-#include "engine/effects/point_coupling.h"
-#include "engine/plate_engine.h"
-
-#include <array>
-#include <cstddef>
+#include "engine/point_field.h"
 
 namespace calib::engine::effects {
 
-template <typename T>
-class FingerExtension final : public EngineExtension<T> {
+class FingerExtension final : public PointExtension {
 public:
-    // Throws std::invalid_argument if the point is off the plate or on fixed nodes only.
-    FingerExtension(const PlateEngine<T> &engine, const FingerSpec &spec);
-    void after_update(PlateEngine<T> &engine) override;
+    // Throws std::invalid_argument if the point is off the plate or on fixed
+    // nodes only, or for a spring the time step cannot take.
+    FingerExtension(const PointField &engine, const FingerSpec &spec);
+    void after_update(PointField &engine) override;
 
     double last_force_n() const { return force_; }  // force on the plate in the last step (N)
     // Energy stored in the finger (J) at n+1/2: 1/2 m W_t^2 + 1/2 s W+ W.
@@ -35,11 +32,8 @@ public:
 private:
     FingerSpec spec_;
     double k_ = 0;
-    PointCoupling<T> point_;
+    PointTaps point_;
     double force_ = 0, energy_ = 0;
 };
-
-extern template class FingerExtension<float>;
-extern template class FingerExtension<double>;
 
 }  // namespace calib::engine::effects

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace calib::engine::effects {
+namespace calib::report {
 
 struct EffectStatus {
     std::string name;         // "loss", "thick_plate", "finger", "exciter"
@@ -36,8 +36,8 @@ struct EffectSupport {
 
 // plate: the operator's parameters (loss already fitted or zero);
 // f_lo_hz, f_hi_hz: the band the calibration uses (pulse band).
-std::vector<EffectStatus> assess_effects(const EffectsSpec &spec, const PlateParams &plate, double f_lo_hz,
-                                         double f_hi_hz, const EffectSupport &support = {});
+std::vector<EffectStatus> assess_effects(const engine::effects::EffectsSpec &spec, const engine::PlateParams &plate,
+                                         double f_lo_hz, double f_hi_hz, const EffectSupport &support = {});
 
 // One line per effect: "effect <name>: <why>".
 std::vector<std::string> describe_effects(const std::vector<EffectStatus> &status);
@@ -46,4 +46,4 @@ std::vector<std::string> describe_effects(const std::vector<EffectStatus> &statu
 // the thick-plate correction costs).
 double kirchhoff_phase_error(const physics::Material &m, double thickness_m, double f_hz);
 
-}  // namespace calib::engine::effects
+}  // namespace calib::report

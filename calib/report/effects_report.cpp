@@ -1,4 +1,4 @@
-#include "engine/effects/effects_report.h"
+#include "report/effects_report.h"
 
 #include "engine/effects/exciter.h"
 #include "physics/dispersion.h"
@@ -7,7 +7,10 @@
 #include <cstdio>
 #include <numbers>
 
-namespace calib::engine::effects {
+namespace calib::report {
+
+using engine::PlateParams;
+using namespace engine::effects;
 
 namespace {
 
@@ -61,7 +64,7 @@ std::vector<EffectStatus> assess_effects(const EffectsSpec &spec, const PlatePar
                                 fmt(", %.0f deg of phase over the plate diagonal", 360 * e * cycles);
         if (spec.thick_plate && !support.thick_plate) {
             s.active = false;
-            s.why = "asked, but NOT composed (this simulation is Kirchhoff; the Mindlin engine is not wired in yet): " + est;
+            s.why = "asked, but NOT composed (the caller's simulation runs the Kirchhoff engine only): " + est;
         } else if (spec.thick_plate)
             s.why = std::string(s.negligible ? "on (asked; negligible here)" : "on (asked)") +
                     " (Mindlin engine in every simulation: calibration and verification); left out it would cost: " + est;
@@ -123,4 +126,4 @@ std::vector<std::string> describe_effects(const std::vector<EffectStatus> &statu
     return out;
 }
 
-}  // namespace calib::engine::effects
+}  // namespace calib::report

@@ -1,4 +1,4 @@
-#include "engine/effects/thick_plate.h"
+#include "engine/mindlin/mindlin_operator.h"
 
 #include "engine/spectrum.h"
 
@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace calib::engine::effects {
+namespace calib::engine::mindlin {
 
 namespace {
 
@@ -148,6 +148,8 @@ MindlinOperator::MindlinOperator(const PlateParams &params, const Grid &grid, ph
     stiffness_.resize(n, n);
     stiffness_.setFromTriplets(trip.begin(), trip.end());
     stiffness_.prune(0.0);
+    SerialEigen serial;
+    lambda_ = largest_generalized_eigenvalue(stiffness_, mass_);
 }
 
 std::ptrdiff_t MindlinOperator::w_index(int i, int j) const
@@ -171,159 +173,9 @@ std::ptrdiff_t MindlinOperator::psi_y_index(int i, int j) const
     return psiy_of_[std::size_t(j) * std::size_t(grid_.nx + 1) + std::size_t(i)];
 }
 
-double MindlinOperator::lambda_max() const
-{
-    if (lambda_ < 0)
-        lambda_ = largest_generalized_eigenvalue(stiffness_, mass_);
-    return lambda_;
-}
-
 double MindlinOperator::max_time_step() const
 {
     return 2.0 / std::sqrt(lambda_max());
 }
 
-MindlinEngine::MindlinEngine(std::shared_ptr<const MindlinOperator> op, double time_step_s)
-    : op_(std::move(op)), k_(time_step_s)
-{
-    if (!op_)
-        throw std::invalid_argument("MindlinEngine: no operator");
-    const double bound = op_->max_time_step();
-    if (!(k_ > 0) || k_ >= bound)
-        throw std::invalid_argument("thick_plate: time step " + std::to_string(k_) +
-                                    " s is not below the Mindlin stability bound " + std::to_string(bound) + " s");
-    const Eigen::VectorXd scale = (k_ * k_) * op_->mass().cwiseInverse();
-    update_ = scale.asDiagonal() * op_->stiffness();
-    update_.makeCompressed();
-    const Eigen::Index n = Eigen::Index(op_->unknown_count());
-    prev_ = Eigen::VectorXd::Zero(n);
-    cur_ = Eigen::VectorXd::Zero(n);
-    next_ = Eigen::VectorXd::Zero(n);
-}
-
-MindlinEngine::Tap MindlinEngine::tap_at(double x_m, double y_m, bool scale_by_mass) const
-{
-    const Grid &g = op_->grid();
-    if (!(x_m >= 0 && x_m <= g.length_x_m() && y_m >= 0 && y_m <= g.length_y_m()))
-        throw std::invalid_argument("thick_plate: point (" + std::to_string(x_m) + ", " + std::to_string(y_m) +
-                                    ") m is off the plate");
-    const double fx = x_m / g.h, fy = y_m / g.h;
-    const int i = std::min(int(fx), g.nx - 1), j = std::min(int(fy), g.ny - 1);
-    const double ax = fx - i, ay = fy - j;
-    Tap t;
-    const double wts[4] = {(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay};
-    const int di[4] = {0, 1, 0, 1}, dj[4] = {0, 0, 1, 1};
-    for (int c = 0; c < 4; ++c) {
-        const std::ptrdiff_t u = op_->w_index(i + di[c], j + dj[c]);
-        if (u < 0 || wts[c] == 0)
-            continue;
-        t.index.push_back(Eigen::Index(u));
-        t.weight.push_back(scale_by_mass ? wts[c] * k_ * k_ / op_->mass()[u] : wts[c]);
-    }
-    return t;
-}
-
-std::size_t MindlinEngine::add_source(double x_m, double y_m)
-{
-    sources_.push_back(tap_at(x_m, y_m, true));
-    return sources_.size() - 1;
-}
-
-std::size_t MindlinEngine::add_receiver(double x_m, double y_m)
-{
-    receivers_.push_back(tap_at(x_m, y_m, false));
-    return receivers_.size() - 1;
-}
-
-double MindlinEngine::receiver_value(std::size_t r) const
-{
-    const Tap &t = receivers_[r];
-    double v = 0;
-    for (std::size_t n = 0; n < t.index.size(); ++n)
-        v += t.weight[n] * cur_[t.index[n]];
-    return v;
-}
-
-void MindlinEngine::step()
-{
-    // Fused CSR rows: q+ = 2 q - q- - (k^2 M^-1 K) q. Written out rather than
-    // Eigen's product, whose OpenMP split of a few thousand rows costs more
-    // than the rows (measured 40x slower on a loaded 2-core machine).
-    const Eigen::Index n = update_.rows();
-    const int *outer = update_.outerIndexPtr();
-    const int *inner = update_.innerIndexPtr();
-    const double *value = update_.valuePtr();
-    const double *c = cur_.data(), *p = prev_.data();
-    double *out = next_.data();
-#pragma omp parallel for schedule(static) if (n > 200000)
-    for (Eigen::Index r = 0; r < n; ++r) {
-        double acc = 0;
-        for (int e = outer[r]; e < outer[r + 1]; ++e)
-            acc += value[e] * c[inner[e]];
-        out[r] = 2 * c[r] - p[r] - acc;
-    }
-    for (const Tap &s : sources_)
-        for (std::size_t n = 0; n < s.index.size(); ++n)
-            next_[s.index[n]] += s.weight[n] * s.force;
-    for (Finger &f : fingers_)
-        apply_finger(f);
-    prev_.swap(cur_);
-    cur_.swap(next_);
-    ++steps_;
-}
-
-std::size_t MindlinEngine::add_finger(const FingerSpec &spec)
-{
-    if (!(spec.mass_kg >= 0) || !(spec.stiffness_n_m >= 0) || !(spec.damping_n_s_m >= 0))
-        throw std::invalid_argument("finger: mass, stiffness and damping must be >= 0");
-    Finger f;
-    f.spec = spec;
-    f.phi = tap_at(spec.x_m, spec.y_m, false);
-    if (f.phi.index.empty())
-        throw std::invalid_argument("finger: the point lies on held nodes only");
-    for (std::size_t n = 0; n < f.phi.index.size(); ++n) {
-        f.gain.push_back(f.phi.weight[n] * k_ * k_ / op_->mass()[f.phi.index[n]]);
-        f.g += f.phi.weight[n] * f.gain.back();
-    }
-    // Explicit spring: it raises lambda_max(M^-1 K) by at most s g / k^2 (as in finger.cpp).
-    const double margin = 1.0 - k_ * k_ * op_->lambda_max() / 4.0;
-    if (spec.stiffness_n_m * f.g / 4.0 >= margin)
-        throw std::invalid_argument("finger: stiffness_n_m too high for the time step (needs s < " +
-                                    std::to_string(4.0 * margin / f.g) + " N/m)");
-    fingers_.push_back(std::move(f));
-    return fingers_.size() - 1;
-}
-
-void MindlinEngine::apply_finger(Finger &f)
-{
-    // During step(): next_ = q+ (free of the finger), cur_ = q, prev_ = q-.
-    double wp = 0, w = 0, wm = 0;
-    for (std::size_t n = 0; n < f.phi.index.size(); ++n) {
-        wp += f.phi.weight[n] * next_[f.phi.index[n]];
-        w += f.phi.weight[n] * cur_[f.phi.index[n]];
-        wm += f.phi.weight[n] * prev_[f.phi.index[n]];
-    }
-    const double m = f.spec.mass_kg, c = f.spec.damping_n_s_m, s = f.spec.stiffness_n_m, k = k_;
-    const double alpha = m / (k * k) + c / (2 * k);
-    const double beta = m * (2 * w - wm) / (k * k) + c * wm / (2 * k) - s * w;
-    const double w_new = (wp + f.g * beta) / (1 + f.g * alpha);
-    f.force = beta - alpha * w_new;
-    for (std::size_t n = 0; n < f.phi.index.size(); ++n)
-        next_[f.phi.index[n]] += f.gain[n] * f.force;
-}
-
-double MindlinEngine::energy() const
-{
-    const Eigen::VectorXd v = (cur_ - prev_) / k_;
-    return 0.5 * v.dot(op_->mass().cwiseProduct(v)) + 0.5 * cur_.dot(op_->stiffness() * prev_);
-}
-
-void MindlinEngine::set_state(const Eigen::VectorXd &current, const Eigen::VectorXd &previous)
-{
-    if (current.size() != cur_.size() || previous.size() != prev_.size())
-        throw std::invalid_argument("MindlinEngine::set_state: size does not match the operator");
-    cur_ = current;
-    prev_ = previous;
-}
-
-}  // namespace calib::engine::effects
+}  // namespace calib::engine::mindlin

@@ -1,4 +1,4 @@
-// The thick-plate effect: a Mindlin-Reissner plate (shear deformation and
+// The thick-plate operator: a Mindlin-Reissner plate (shear deformation and
 // rotary inertia), for high f*d where Kirchhoff's A0 is too fast (ultrasonic
 // haptics on 5-10 mm glass: Kirchhoff is 5-10 % off at 20-40 kHz, Mindlin
 // ~0.5 %; docs/effects.md).
@@ -27,26 +27,30 @@
 //
 // On a simply supported plate the discrete modes are exactly sin/cos
 // products, and the scheme's dispersion is Mindlin's with the wavenumber
-// beta replaced by (2/h) sin(beta h / 2) (second order in h).
+// beta replaced by (2/h) sin(beta h / 2) (second order in h). Its engine is
+// mindlin_engine.h; a scene asks for it with [effects] thick_plate
+// (scene::build_plate builds the operator once, every simulation of the plate
+// shares it).
 #pragma once
 
-#include "engine/effects/effects.h"
 #include "engine/plate_operator.h"
 #include "physics/dispersion.h"
 
 #include <Eigen/SparseCore>
 
 #include <cstddef>
-#include <memory>
 #include <vector>
 
-namespace calib::engine::effects {
+namespace calib::engine::mindlin {
 
 class MindlinOperator {
 public:
     using SparseMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
-    // Throws std::invalid_argument for free edges, loss, or a grid under 2 x 2.
+    // Assembles K and M and finds the stability bound (Lanczos, on this
+    // thread), so a built operator is read-only and shared by simulations
+    // running in parallel. Throws std::invalid_argument for free edges, loss,
+    // or a grid under 2 x 2.
     MindlinOperator(const PlateParams &params, const Grid &grid,
                     physics::MindlinShear shear = physics::MindlinShear::pi2_over_12);
 
@@ -64,8 +68,8 @@ public:
 
     const Eigen::VectorXd &mass() const { return mass_; }
     const SparseMatrix &stiffness() const { return stiffness_; }
-    double lambda_max() const;     // of M^-1 K (computed once)
-    double max_time_step() const;  // 2 / sqrt(lambda_max)
+    double lambda_max() const { return lambda_; }  // of M^-1 K
+    double max_time_step() const;                  // 2 / sqrt(lambda_max)
 
 private:
     PlateParams params_;
@@ -75,61 +79,7 @@ private:
     std::vector<std::size_t> w_node_;
     Eigen::VectorXd mass_;
     SparseMatrix stiffness_;
-    mutable double lambda_ = -1;
+    double lambda_ = 0;
 };
 
-// Leapfrog time stepping of a MindlinOperator (double precision).
-class MindlinEngine {
-public:
-    // Throws std::invalid_argument if time_step_s is not below the bound.
-    MindlinEngine(std::shared_ptr<const MindlinOperator> op, double time_step_s);
-
-    const MindlinOperator &plate() const { return *op_; }
-    double time_step() const { return k_; }
-    std::size_t steps_done() const { return steps_; }
-
-    std::size_t add_source(double x_m, double y_m);    // point force on w, bilinear
-    std::size_t add_receiver(double x_m, double y_m);  // w, same weights
-    void set_source_force(std::size_t s, double force_n) { sources_[s].force = force_n; }
-    double receiver_value(std::size_t r) const;
-
-    // The finger (effects.h) on w at its point: the same exact coupled
-    // solve as FingerExtension (finger.h), with the mass-scaled source
-    // weights as the displacement per newton. Throws std::invalid_argument
-    // off the plate, on held nodes only, or for a spring the step cannot take.
-    std::size_t add_finger(const FingerSpec &spec);
-    double finger_force_n(std::size_t f) const { return fingers_[f].force; }
-
-    void step();
-    double energy() const;  // J, at n+1/2 (the plate's; a finger's own energy is not included)
-
-    // Unknown vectors (layout of MindlinOperator) for q^n and q^{n-1}.
-    const Eigen::VectorXd &state() const { return cur_; }
-    void set_state(const Eigen::VectorXd &current, const Eigen::VectorXd &previous);
-
-private:
-    struct Tap {
-        std::vector<Eigen::Index> index;
-        std::vector<double> weight;
-        double force = 0;
-    };
-    struct Finger {
-        FingerSpec spec;
-        Tap phi;                  // interpolation weights
-        std::vector<double> gain; // phi * k^2 / M: displacement per newton
-        double g = 0;             // phi^T gain
-        double force = 0;
-    };
-    Tap tap_at(double x_m, double y_m, bool scale_by_mass) const;
-    void apply_finger(Finger &f);
-
-    std::shared_ptr<const MindlinOperator> op_;
-    double k_ = 0;
-    std::size_t steps_ = 0;
-    MindlinOperator::SparseMatrix update_;  // k^2 M^-1 K
-    Eigen::VectorXd prev_, cur_, next_;
-    std::vector<Tap> sources_, receivers_;
-    std::vector<Finger> fingers_;
-};
-
-}  // namespace calib::engine::effects
+}  // namespace calib::engine::mindlin
