@@ -11,6 +11,20 @@
 using namespace calib::pipeline;
 
 namespace {
+// rows x sites x len responses, normal random (seeded) times `scale`.
+std::vector<std::vector<std::vector<float>>> random_responses(size_t rows, size_t sites, size_t len, unsigned seed,
+                                                              float scale = 1.0f)
+{
+    std::mt19937 rng(seed);
+    std::normal_distribution<float> n01;
+    std::vector<std::vector<std::vector<float>>> r(rows, std::vector<std::vector<float>>(sites, std::vector<float>(len)));
+    for (auto &a : r)
+        for (auto &b : a)
+            for (float &v : b)
+                v = n01(rng) * scale;
+    return r;
+}
+
 Band fig7_band()
 {
     Band b;
@@ -119,14 +133,8 @@ TEST(Placement, SpacingIsRespectedAndImpossibleBandsRefused)
 TEST(ContrastModel, MatchesDirectCorrelationSum)
 {
     // 3 points (2 foci + 1 probe) x 5 sites x 64 samples of random responses.
-    std::mt19937 rng(9);
-    std::normal_distribution<float> n01;
     const size_t rows = 3, sites = 5, len = 64, keep = 20;
-    std::vector<std::vector<std::vector<float>>> r(rows, std::vector<std::vector<float>>(sites, std::vector<float>(len)));
-    for (auto &a : r)
-        for (auto &b : a)
-            for (float &v : b)
-                v = n01(rng);
+    const std::vector<std::vector<std::vector<float>>> r = random_responses(rows, sites, len, 9);
     ContrastModel m(r, 2, keep);
     const std::vector<size_t> chosen = {0, 2, 4};
     ContrastModel::Score s = m.score(chosen);
@@ -158,14 +166,9 @@ TEST(ContrastModel, MatchesDirectCorrelationSum)
 // evaluation of that state; a long chain of swaps and undos stays identical.
 TEST(ContrastModel, OnePassSwapEqualsTwoAddsBitForBit)
 {
-    std::mt19937 rng(4);
-    std::normal_distribution<float> n01;
     const size_t rows = 4, sites = 9, len = 80, keep = 24;
-    std::vector<std::vector<std::vector<float>>> r(rows, std::vector<std::vector<float>>(sites, std::vector<float>(len)));
-    for (auto &a : r)
-        for (auto &b : a)
-            for (float &v : b)
-                v = n01(rng) * 1e-3f;
+    const std::vector<std::vector<std::vector<float>>> r = random_responses(rows, sites, len, 4, 1e-3f);
+    std::mt19937 rng(4);
     ContrastModel m(r, 3, keep);
     ContrastModel::State fused(m), plain(m);
     std::vector<size_t> set = {0, 3, 5};
