@@ -114,6 +114,14 @@ public:
     // of the lattice every `interval` steps instead of per-step receivers.
     void record_lattice(int stride, std::size_t first_step, std::size_t interval);
     const std::vector<float> &lattice_frames() const { return lattice_frames_; }
+    // Hands over the frames recorded so far in `out` and goes on recording
+    // into out's former buffer, emptied (a long recording read in chunks holds
+    // two chunks, and reuses their memory).
+    void take_lattice_frames(std::vector<float> &out)
+    {
+        out.clear();
+        out.swap(lattice_frames_);
+    }
     double energy() const;  // the plate's (J); a finger's own energy is not included
 
 private:

@@ -1,6 +1,7 @@
 #include "model/cost_model.h"
 
 #include "model/resources.h"
+#include "pipeline/site_recording.h"
 #include "pipeline/time_reversal.h"
 
 #include <omp.h>
@@ -17,11 +18,15 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// lattice_interval > 0: also a copy of the whole field every that many steps,
+// handed over in chunks, as a reciprocity simulation records (site_recording.h).
 double time_one(const std::shared_ptr<const engine::PlateOperator> &op, engine::SimulationOptions so,
-                std::size_t sources, std::size_t receivers, double node_steps)
+                std::size_t sources, std::size_t receivers, double node_steps, std::size_t lattice_interval = 0)
 {
     so.engine.threads = 1;
     engine::Simulation sim(op, so);
+    if (lattice_interval > 0)
+        sim.record_lattice(1, 0, lattice_interval);
     const double x = op->params().size_x_m, y = op->params().size_y_m;
     const double work = double(op->grid().node_count()) + 4.0 * double(receivers + sources);
     const auto steps = static_cast<size_t>(std::clamp(node_steps / work, 20.0, 20000.0));
@@ -30,11 +35,14 @@ double time_one(const std::shared_ptr<const engine::PlateOperator> &op, engine::
                               std::vector<double>(3 * steps + 10, 1e-3));
     for (std::size_t r = 0; r < receivers; r++)
         sim.add_receiver((0.05 + 0.9 * double(r) / double(receivers)) * x, 0.93 * y);
+    std::vector<float> frames;
     sim.run(10);  // warm-up
     double best = INFINITY;  // the fastest of three: a shared machine only ever slows it down
     for (int rep = 0; rep < 3; rep++) {
         const auto t0 = Clock::now();
         sim.run(steps);
+        if (lattice_interval > 0)
+            sim.take_lattice_frames(frames);
         best = std::min(best, seconds_since(t0) / double(steps));
     }
     return best;
@@ -55,17 +63,21 @@ CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::Cal
     c.threads = std::max(1, omp_get_max_threads());
     engine::SimulationOptions so = in.simulation;
     so.thick_plate = in.effects.thick_plate;
-    c.seconds_per_step_simulate = time_one(in.plate, so, 1, plan.sites.size(), node_steps);
+    // A reciprocity simulation: one source, a field copy every site_decimation
+    // steps (a site recording without decimation reads every step's field).
+    c.seconds_per_step_simulate = time_one(in.plate, so, 1, 0, node_steps, plan.site_decimation);
     c.seconds_per_step_verify = time_one(in.plate, so, in.exciters.count, plan.foci, node_steps);
     c.seconds_per_node_step = c.seconds_per_step_simulate / double(plan.nodes);
-    // Each recording is resampled to the search rate (soxr): timed on one trace.
-    std::vector<double> trace(plan.window_steps);
+    // Each site's recording is resampled to the search rate (soxr): timed on
+    // one trace at the recording rate.
+    const double recording_rate = 1.0 / (double(plan.site_decimation) * plan.time_step_s);
+    std::vector<double> trace((plan.window_steps + plan.site_decimation - 1) / plan.site_decimation);
     for (size_t n = 0; n < trace.size(); n++)
-        trace[n] = std::sin(0.01 * double(n)) * std::exp(-1e-4 * double(n));
+        trace[n] = std::sin(0.01 * double(n * plan.site_decimation)) * std::exp(-1e-4 * double(n * plan.site_decimation));
     const auto t0 = Clock::now();
     const int reps = 3;
     for (int r = 0; r < reps; r++)
-        (void)pipeline::resample(trace, 1.0 / plan.time_step_s, plan.search_rate_hz);
+        (void)pipeline::resample(trace, recording_rate, plan.search_rate_hz);
     c.seconds_per_resample = seconds_since(t0) / reps;
     return c;
 }
@@ -74,6 +86,12 @@ double simulation_bytes(std::size_t nodes, engine::Precision p, std::size_t rece
 {
     const double T = p == engine::Precision::f32 ? 4 : 8;
     return 3 * double(nodes) * T + double(receivers) * double(steps) * 8;
+}
+
+double reciprocity_recording_bytes(const pipeline::CalibrationPlan &plan)
+{
+    const double samples = std::ceil(double(plan.window_steps) / double(plan.site_decimation));
+    return double(plan.sites.size()) * samples * 8 + 2.0 * double(pipeline::site_recording_chunk_frames) * double(plan.nodes) * 4;
 }
 
 Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan, const CostModel *cost)
@@ -90,14 +108,14 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
     const double running = std::min(P, emitters);
     const double mb = 1024.0 * 1024.0;
     p.fields_mb = running * simulation_bytes(plan.nodes, prec, 0, 0) / mb;
-    p.traces_mb = running * simulation_bytes(0, prec, plan.sites.size(), plan.window_steps) / mb;
+    p.traces_mb = running * reciprocity_recording_bytes(plan) / mb;
     p.recordings_mb = 2 * emitters * sites * in.calibration.window_s * plan.search_rate_hz * 4 / mb;
     // H and the spectra of its points (playback.h), kept through the verification.
     p.recordings_mb = std::max(p.recordings_mb, 3 * plan.transfer_bytes / mb);
     p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;
     if (!cost)
         return p;
-    p.simulate_s = (cost->seconds_per_step_simulate * double(plan.window_steps) + sites * cost->seconds_per_resample) *
+    p.simulate_s = (cost->seconds_per_step_simulate * double(plan.site_steps) + sites * cost->seconds_per_resample) *
                    std::ceil(emitters / P);
     // Each verification pass runs every focus for the drive; a pass with
     // snapshots re-runs each focus to its focus instant (at most the kept window).

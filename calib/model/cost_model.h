@@ -14,16 +14,17 @@
 namespace calib::model {
 
 // Seconds per step of one simulation on one core, timed on the scene's own
-// operator with the receivers and sources each pipeline stage uses: the
-// reciprocity simulations record at every candidate site, the verification
-// drives the exciters and records the foci. The fastest of three runs of
+// operator with the recording and sources each pipeline stage uses: the
+// reciprocity simulations copy the field every plan.site_decimation steps
+// (pipeline/site_recording.h), the verification drives the exciters and
+// records the foci. The fastest of three runs of
 // about `node_steps` node-steps each (a shared machine only ever slows it down).
 struct CostModel {
     engine::Precision precision = engine::Precision::f32;
     double seconds_per_step_simulate = 0;
     double seconds_per_step_verify = 0;
     double seconds_per_node_step = 0;  // the simulate figure per node, for reports
-    double seconds_per_resample = 0;   // soxr of one window-long trace to the search rate
+    double seconds_per_resample = 0;   // soxr of one site's recording (the window, decimated) to the search rate
     int threads = 1;                   // simulations that run at once (one core each)
 };
 CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,
@@ -38,6 +39,9 @@ double measure_seconds_per_step(const std::shared_ptr<const engine::PlateOperato
 // Bytes one simulation holds while it runs: its field (three levels) and its
 // traces (a double per receiver per step).
 double simulation_bytes(std::size_t nodes, engine::Precision p, std::size_t receivers, std::size_t steps);
+// Bytes a reciprocity simulation records beside its field: a double per site
+// per recorded sample, and the field copies of two chunks (site_recording.h).
+double reciprocity_recording_bytes(const pipeline::CalibrationPlan &plan);
 
 struct Prediction {
     double seconds = 0;            // wall time of calibrate(): simulations and verification

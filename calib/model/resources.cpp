@@ -2,6 +2,7 @@
 
 #include "model/error_model.h"
 #include "pipeline/plan.h"
+#include "pipeline/site_recording.h"
 #include "io/format.h"
 
 #include <omp.h>
@@ -74,7 +75,8 @@ std::string calibration_cause(const pipeline::CalibrationInput &in, const pipeli
 {
     if (!verification_only && p.traces_mb + p.recordings_mb >= p.fields_mb) {
         const std::string sites = fmt("%.0f", double(plan.sites.size())) + " candidate sites x " +
-                                  fmt("%.0f", double(plan.window_steps)) + " steps of recordings";
+                                  fmt("%.0f", std::ceil(double(plan.window_steps) / double(plan.site_decimation))) +
+                                  " samples of recordings";
         if (in.exciters.site_spacing_m)
             return sites + ": raise exciters.site_spacing_m (" + fmt("%g m", *in.exciters.site_spacing_m) +
                    ") or shorten calibration.window_s";
@@ -169,13 +171,19 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
         const double foci = double(s.foci->points.size());
         const double threads = std::max(1, omp_get_max_threads());
         const double rate = pipeline::search_rate(*s.pulse);
-        const double traces = std::min(threads, foci) * sites * window_steps * 8 / mb;
+        // Each running reciprocity simulation: a double per site and recorded
+        // sample, and two chunks of field copies (pipeline/site_recording.h).
+        const double decimation = double(pipeline::site_recording_options(k, rate).decimation);
+        const double traces = std::min(threads, foci) *
+                              (sites * std::ceil(window_steps / decimation) * 8 +
+                               2.0 * double(pipeline::site_recording_chunk_frames) * nodes * 4) / mb;
         const double recordings = 2 * foci * sites * s.calibration->window_s * rate * 4 / mb;
         const double fields = std::min(threads, foci) * simulation_bytes(std::size_t(nodes), prec, 0, 0) / mb;
         memory_mb += traces + recordings + fields;
         node_steps = nodes * window_steps * std::ceil(foci / threads);
         if (traces + recordings >= fields) {
-            cause = fmt("%.0f", sites) + " candidate sites x " + fmt("%.0f", window_steps) + " steps of recordings";
+            cause = fmt("%.0f", sites) + " candidate sites x " + fmt("%.0f", std::ceil(window_steps / decimation)) +
+                    " samples of recordings";
             cause += s.exciters->site_spacing_m
                          ? ": raise exciters.site_spacing_m (" + fmt("%g m", spacing) + ") or shorten calibration.window_s"
                          : " (sites lambda/8 = " + fmt("%.3g mm", spacing * 1e3) + " apart): lower pulse.centre_hz (" +

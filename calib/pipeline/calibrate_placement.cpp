@@ -5,6 +5,7 @@
 #include "pipeline/calibrate_stages.h"
 
 #include "pipeline/plan.h"
+#include "pipeline/site_recording.h"
 
 #include <algorithm>
 #include <chrono>
@@ -32,7 +33,7 @@ void require_finite(const std::vector<double> &trace, size_t index)
 {
     for (size_t n = 0; n < trace.size(); n++)
         if (!std::isfinite(trace[n]))
-            throw std::runtime_error("receiver " + std::to_string(index) + ": non-finite displacement at step " +
+            throw std::runtime_error("site " + std::to_string(index) + ": non-finite displacement at sample " +
                                      std::to_string(n) + " (the simulation diverged)");
 }
 
@@ -77,16 +78,15 @@ void place_exciters(const CalibrationInput &in, const CalibrationPlan &plan, con
     for (size_t e = 0; e < emitters.size(); e++) {
         try {
             engine::Simulation sim(in.plate, single_core_options(in));
-            const size_t src = sim.add_source(emitters[e].x_m, emitters[e].y_m);
             const double k = sim.time_step_s();
-            sim.set_source_impulse(src);
-            for (Point s : pl.sites)
-                sim.add_receiver(s.x_m, s.y_m);
-            sim.run(sim.steps_for(in.calibration.window_s));
+            const std::size_t steps = sim.steps_for(in.calibration.window_s);
+            const SiteRecording sites = record_sites(sim, emitters[e], pl.sites, steps,
+                                                     site_recording_options(k, rate_d));
+            const std::vector<std::vector<double>> resampled = site_responses_at(sites, k, steps, rate_d);
             std::vector<std::vector<float>> rec(pl.sites.size()), imp(pl.sites.size());
             for (size_t i = 0; i < pl.sites.size(); i++) {
-                require_finite(sim.traces()[i], i);
-                const std::vector<double> h = resample(sim.traces()[i], 1.0 / k, rate_d);
+                const std::vector<double> &h = resampled[i];
+                require_finite(h, i);
                 imp[i].assign(h.begin(), h.end());
                 rec[i].assign(h.size(), 0.0f);
                 for (size_t n = 0; n < h.size(); n++) {  // r = p * h, causal, truncated to the window

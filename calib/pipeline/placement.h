@@ -83,7 +83,14 @@ public:
         explicit State(const ContrastModel &m) : m_(&m), y_(m.foci_ * m.rows_ * m.lags_, 0.0f) {}
         void add(size_t site, float sign);
         Score evaluate() const;
+        // add(out, -1) then add(in, +1) in one pass over the sums, element by
+        // element in the same order of operations (so the same floats), and
+        // the worst_db evaluate() would then return (swap), or nothing (undo).
+        double swap(size_t out, size_t in);
+        void undo(size_t out, size_t in);
     private:
+        template <bool Evaluate>
+        double exchange(size_t out, size_t in);
         const ContrastModel *m_;
         std::vector<float> y_;
     };

@@ -1,6 +1,7 @@
 #include "pipeline/plan.h"
 
 #include "pipeline/calibrate.h"
+#include "pipeline/site_recording.h"
 #include "pipeline/transfer.h"
 
 #include <algorithm>
@@ -96,6 +97,9 @@ CalibrationPlan plan(const CalibrationInput &in)
     p.time_step_s = in.simulation.time_step_s > 0 ? in.simulation.time_step_s
                                                    : in.simulation.courant * in.plate->max_time_step();
     p.window_steps = steps_for(in.calibration.window_s, p.time_step_s);
+    const SiteRecordingOptions sro = site_recording_options(p.time_step_s, p.search_rate_hz);
+    p.site_decimation = sro.decimation;
+    p.site_steps = p.window_steps + site_recording_delay_steps(p.time_step_s, sro);
     // The drive is the kept part of the window (time_reversal.cpp), then the tail.
     p.drive_steps = steps_for(in.calibration.truncate_fraction * in.calibration.window_s + in.calibration.verify_tail_s,
                               p.time_step_s);

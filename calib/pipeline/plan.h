@@ -37,7 +37,12 @@ struct CalibrationPlan {
     // The simulations, each on one core (the foci run in parallel).
     std::size_t nodes = 0;         // grid nodes of the plate
     double time_step_s = 0;        // Kirchhoff step of the scene's settings (the thick plate's is smaller)
-    std::size_t window_steps = 0;  // per reciprocity simulation
+    std::size_t window_steps = 0;  // per reciprocity simulation: the impulse response's window
+    // How a reciprocity simulation records (site_recording.h): a copy of the
+    // field every site_decimation-th step; site_steps = the window and the
+    // band-limited impulse's delay.
+    std::size_t site_decimation = 1;
+    std::size_t site_steps = 0;
     std::size_t drive_steps = 0;   // per verification run: the kept part of the window and the tail
     // The forward passes ([effects.finger] only: the finger changes the plate
     // per touch position); empty when the transfer matrix serves.
