@@ -1,6 +1,7 @@
 #include "model/resources.h"
 
 #include "model/error_model.h"
+#include "pipeline/focus_subset.h"
 #include "pipeline/plan.h"
 #include "io/format.h"
 
@@ -9,6 +10,7 @@
 #include <malloc.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -166,9 +168,14 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
             return;  // plan() refuses it, naming the key, before enumerating anything
         const double sites = fixed ? double(s.exciters->positions.size())
                                    : double(pipeline::candidate_sites(band, spacing).size());
-        const double foci = double(s.foci->points.size());
         const double threads = std::max(1, omp_get_max_threads());
         const double rate = pipeline::search_rate(*s.pulse);
+        // The placement simulates the foci of its subset only (pipeline/focus_subset.h).
+        const double foci = std::min(
+            double(s.foci->points.size()),
+            double(pipeline::placement_focus_cap(
+                s.exciters->placement_foci, sites,
+                pipeline::contrast_model_lags(s.calibration->window_s, s.calibration->truncate_fraction, rate))));
         const double traces = std::min(threads, foci) * sites * window_steps * 8 / mb;
         const double recordings = 2 * foci * sites * s.calibration->window_s * rate * 4 / mb;
         const double fields = std::min(threads, foci) * simulation_bytes(std::size_t(nodes), prec, 0, 0) / mb;

@@ -92,6 +92,23 @@ void check_feasible(const CalibrationInput &in)
                                         ", " + fmt(p.y_m) + ") m is not inside the plate (0..." + fmt(lx) + ", 0..." +
                                         fmt(ly) + ")");
     }
+    // Foci are where a person touches: inside the active area.
+    const Rect &area = in.active.area;
+    for (size_t k = 0; k < in.foci.points.size(); k++) {
+        const Point p = in.foci.points[k].at;
+        if (!area.contains(p, 1e-9))
+            throw std::invalid_argument("foci.points_m: focus " + std::to_string(in.foci.points[k].id) + " at (" +
+                                        fmt(p.x_m) + ", " + fmt(p.y_m) + ") m is outside the active area [" +
+                                        fmt(area.x0_m) + ", " + fmt(area.y0_m) + ", " + fmt(area.x1_m) + ", " +
+                                        fmt(area.y1_m) + "]");
+    }
+    // Foci closer than one cell of the plate grid are not distinct points of
+    // the simulated plate (the source and receiver of each sit on its nodes).
+    const double h = in.plate->grid().h;
+    if (in.foci.pitch_m && *in.foci.pitch_m < h)
+        throw std::invalid_argument("foci.pitch_m: " + fmt(*in.foci.pitch_m) +
+                                    " m is finer than the simulation grid spacing (" + fmt(h) +
+                                    " m): foci closer than one grid cell are not distinct on the simulated plate");
     const Rect &a = in.active.area;
     if (!(a.x0_m < a.x1_m && a.y0_m < a.y1_m && a.x0_m >= 0 && a.y0_m >= 0 && a.x1_m <= lx && a.y1_m <= ly))
         throw std::invalid_argument("active_area: the rectangle must lie on the plate with x0 < x1 and y0 < y1");
@@ -136,8 +153,12 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
     const CalibrationPlan plan = pipeline::plan(in);
     CalibrationResult res;
 
-    // 1-2. Responses of the placement's emitters and the placement search.
+    // 1-2. Responses of the placement's emitters (the foci of its subset and
+    //      any probe points) and the placement search.
     place_exciters(in, plan, progress, res);
+    res.placement.focus_subset = plan.focus_subset;
+    res.placement.subset_cover_m = plan.subset_cover_m;
+    res.placement.simulations = plan.emitters.size();
 
     // 3. The transfer matrix of the placed exciters (the finger is composed in
     //    playback only, so H of the bare plate also serves the finger's scenes).

@@ -69,6 +69,12 @@ double db(double a, double b) { return 20 * std::log10(a / std::max(b, 1e-300));
 
 }  // namespace
 
+bool is_other_focus(const CalibrationInput &in, std::size_t f, std::size_t g, double lambda_half_m)
+{
+    const Point a = in.foci.points[f].at, b = in.foci.points[g].at;
+    return g != f && std::hypot(a.x_m - b.x_m, a.y_m - b.y_m) > lambda_half_m;
+}
+
 std::vector<float> to_unit(const std::vector<int16_t> &s)
 {
     std::vector<float> v(s.size());
@@ -223,12 +229,16 @@ Verification verify_signals_with(const CalibrationInput &in, const TransferMatri
         m.peak_m = pk.value;
         m.peak_time_s = pk.index * M * k + k;  // trace index s M is the state after step s M
         m.lead_time_s = m.peak_time_s;
+        size_t others = 0;
         for (size_t g = 0; g < K; g++) {
             v.traces[f].emplace_back(w[g].begin(), w[g].end());
-            if (g != f && sample_peak(w[g].data(), w[g].size()) >= 0.8 * m.max_other_foci_m)
+            if (!is_other_focus(in, f, g, lambda_half))
+                continue;
+            others++;
+            if (sample_peak(w[g].data(), w[g].size()) >= 0.8 * m.max_other_foci_m)
                 m.max_other_foci_m = std::max(m.max_other_foci_m, refined_peak(w[g]).value);
         }
-        m.other_foci_contrast_db = K > 1 ? db(m.peak_m, m.max_other_foci_m) : 0.0;
+        m.other_foci_contrast_db = others > 0 ? db(m.peak_m, m.max_other_foci_m) : 0.0;
         m.crosses_threshold = m.peak_m >= thr;
         m.others_below_threshold = m.max_other_foci_m < thr;
         if (L == 0)

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "scene_text.h"
+#include "small_scene.h"
 
 using namespace calib;
 
@@ -23,47 +24,7 @@ namespace {
 
 using scene_text::replace;
 
-// The demonstrator scaled down (half the size, four times the frequency, a
-// quarter of the time): 2 x 2 foci, the whole pipeline in about two seconds.
-const char *small_scene = R"(
-name = "small"
-[plate]
-size_m = [0.35, 0.35]
-thickness_m = 0.002
-material = "acrylic"
-edges = "clamped"
-[plate.loss]
-frequencies_hz = [400, 1200]
-t60_s = [0.135, 0.045]
-[simulation]
-points_per_wavelength = 8
-precision = "float"
-[active_area]
-rect_m = [0.05, 0.05, 0.30, 0.30]
-frame_margin_m = 0.01
-clearance_m = 0.003
-[exciters]
-count = 8
-placement = "random"
-seed = 3
-min_spacing_m = 0.03
-force_full_scale_n = 0.5
-restarts = 2
-iterations = 300
-[foci]
-grid = [2, 2]
-[pulse]
-shape = "hann_burst"
-centre_hz = 1200
-cycles = 2
-amplitude_m = 10e-6
-[calibration]
-window_s = 0.05
-truncate_fraction = 0.3
-output_rate_hz = 48000
-threshold_m = 5e-6
-verify_tail_s = 0.025
-)";
+using calib_test::small_scene;
 
 pipeline::CalibrationInput input_of(const std::string &text, const std::string &name = "small.toml")
 {
@@ -141,7 +102,7 @@ TEST(CalibrationScene, EveryBadValueNamesItsKey)
         {"restarts = 2", "restarts = 0", "small.toml: exciters.restarts: must lie in [1, 1000], got 0"},
         {"grid = [2, 2]", "grid = [2.5, 2]", "small.toml: foci.grid: needs whole numbers >= 1 and at most 1024 foci"},
         {"grid = [2, 2]", "grid = [2, 2]\npoints_m = [[0.1, 0.1]]",
-         "small.toml: foci.points_m: give exactly one of grid = [nx, ny] or points_m = [[x, y], ...]"},
+         "small.toml: foci.points_m: give exactly one of grid = [nx, ny], pitch_m = p or points_m = [[x, y], ...]"},
         {"grid = [2, 2]", "points_m = [[0.1, 0.1], [0.2]]", "small.toml: foci.points_m: entry 1 must be an [x, y] pair in metres"},
         {"grid = [2, 2]", "points_m = [[0.1, 0.1], [0.2, 0.2]]\nids = [1, 1]",
          "small.toml: foci.ids: must be distinct integers in [0, 4294967295]"},
