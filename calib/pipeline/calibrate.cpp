@@ -1,6 +1,7 @@
 #include "pipeline/calibrate.h"
 
 #include "pipeline/calibrate_stages.h"
+#include "pipeline/first_failure.h"
 #include "pipeline/plan.h"
 #include "pipeline/verification.h"
 
@@ -228,7 +229,11 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
     const auto keep = static_cast<size_t>(std::llround(in.calibration.truncate_fraction * double(n)));
     if (keep > H.samples)
         throw std::logic_error("transfer matrix shorter than the kept window");
-    std::vector<DriveSignals> out;
+    // One focus per thread; each focus's dither seed is its own, so the
+    // signals do not depend on the thread count.
+    std::vector<DriveSignals> out(in.foci.points.size());
+    FirstFailure failure;
+#pragma omp parallel for schedule(dynamic)
     for (size_t f = 0; f < in.foci.points.size(); f++) {
         std::vector<std::vector<double>> rec(H.channels, std::vector<double>(n, 0.0));
         for (size_t c = 0; c < H.channels; c++) {
@@ -240,13 +245,15 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
                 rec[c][t] = acc;
             }
         }
-        tro.dither_seed = in.exciters.seed * 1000003u + f;
+        TimeReversalOptions o = tro;
+        o.dither_seed = in.exciters.seed * 1000003u + f;
         try {
-            out.push_back(make_drive_signals(rec, H.rate_hz, pulse_duration_s(in.pulse), tro));
-        } catch (const std::invalid_argument &e) {
-            throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
+            out[f] = make_drive_signals(rec, H.rate_hz, pulse_duration_s(in.pulse), o);
+        } catch (const std::exception &e) {
+            failure.keep(f, "focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
         }
     }
+    failure.rethrow();
     return out;
 }
 
