@@ -162,10 +162,21 @@ int dry_run(const std::string &path, const LimitArgs &l)
 void print_summary(const pipeline::Verification &v, const pipeline::CalibrationInput &in, bool table_mode)
 {
     if (!table_mode) {  // a device recording: which focus moved how much, and when (judged by --expect)
+        // A dense grid: only the foci that crossed the threshold, one line each.
+        const bool all = v.foci.size() <= 12;
         std::fprintf(stderr, "%-6s %9s %9s %10s %12s\n", "focus", "x_mm", "y_mm", "peak_um", "at_ms");
-        for (const pipeline::FocusMetrics &m : v.foci)
+        size_t quiet = 0;
+        for (const pipeline::FocusMetrics &m : v.foci) {
+            if (!all && !m.crosses_threshold) {
+                quiet++;
+                continue;
+            }
             std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %12.1f\n", m.id, m.at.x_m * 1e3, m.at.y_m * 1e3,
                          m.peak_m * 1e6, m.peak_time_s * 1e3);
+        }
+        if (quiet > 0)
+            std::fprintf(stderr, "(%zu of %zu foci stayed below the %.1f um threshold)\n", quiet, v.foci.size(),
+                         in.calibration.threshold_m * 1e6);
         return;
     }
     // Up to a dozen foci, one line each; a dense grid as worst / median / best.
