@@ -39,12 +39,15 @@ FocusSubset farthest_point_subset(const std::vector<Point> &foci, std::size_t ca
 // The largest distance from a focus to its nearest member.
 double covering_radius(const std::vector<Point> &foci, const std::vector<std::size_t> &members);
 
-// Default cap on the foci of the placement search: 16 (as many as a 4 x 4
-// spread: the corners, the edges and the middle of the active area), lowered
-// where the contrast model (sites x K^2 x lags floats) would exceed
-// max_contrast_model_bytes, but not below 4 (a search needs other foci to
-// weigh a focus against).
-constexpr std::size_t default_placement_foci = 16, min_default_placement_foci = 4;
+// Default cap on the foci of the placement search: 9 (as many as the seed's
+// 3 x 3 demonstrator: the corners, the edge middles and the centre of the
+// active area), lowered where the contrast model (sites x K^2 x lags floats)
+// would exceed max_contrast_model_bytes, but not below 4 (a search needs
+// other foci to weigh a focus against). More is not better: the search
+// maximizes the worst contrast over the foci it weighs, a proxy; on the dense
+// Fig. 7 panel 9 weighed foci gave the best whole-area result of 9, 13 and 16
+// at the least cost (docs/BENCHMARKS.md).
+constexpr std::size_t default_placement_foci = 9, min_default_placement_foci = 4;
 constexpr double max_contrast_model_bytes = 256.0 * 1024 * 1024;
 
 // The cap for a scene: `asked` ([exciters] placement_foci) if given, else

@@ -169,10 +169,11 @@ TEST(FocusSubset, ScatteredFociAreCoveredWithinThePackingBound)
 
 TEST(FocusSubset, CapFollowsTheContrastModelMemory)
 {
-    // Fig. 7: 464 sites, 744 lags: 16 foci take 464 x 256 x 744 x 4 B = 353 MB,
-    // over the 256 MiB bound; 13 take 233 MB.
-    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 464, 744), 13u);
-    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 40, 200), 16u);       // small model: the default
+    // Fig. 7: 464 sites, 744 lags: the default 9 take 464 x 81 x 744 x 4 B =
+    // 112 MB; 13 would take 233 MB, 14 over the 256 MiB bound (271 MB).
+    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 464, 744), 9u);
+    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 4 * 464, 744), 6u);   // 4x the sites: 13 / 2
+    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 40, 200), 9u);        // small model: the default
     EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 1e6, 1e4), 4u);       // never below 4
     EXPECT_EQ(pipeline::placement_focus_cap(7u, 1e6, 1e4), 7u);                 // the scene's key wins
     EXPECT_DOUBLE_EQ(pipeline::contrast_model_lags(0.2, 0.3, 2866), 172 + 573 - 1);
