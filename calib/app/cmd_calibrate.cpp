@@ -146,6 +146,9 @@ int dry_run(const std::string &path, const LimitArgs &l)
       << fmt("%+.3f %%", 100 * model::predicted_phase_error(s.plate.material, s.plate.thickness_m, f_max, g.h,
                                                             plan.time_step_s))
       << " phase velocity at f_max vs exact A0\n";
+    o << "  placement foci    " << plan.foci << " of " << in.foci.points.size() << " weighed by the search (cap "
+      << plan.placement_focus_cap << ", every focus within " << fmt("%.0f mm", plan.subset_cover_m * 1e3)
+      << " of one), " << plan.emitters.size() << " placement simulations\n";
     o << "  predicted time    " << fmt("%.1f s", pr.seconds) << " (" << plan.emitters.size() << " simulations x "
       << plan.sites.size() << " sites, " << cost.threads << " threads, "
       << fmt("%.3g ms", cost.seconds_per_step_simulate * 1e3) << " per step measured now)\n";
@@ -160,10 +163,21 @@ int dry_run(const std::string &path, const LimitArgs &l)
 void print_summary(const pipeline::Verification &v, const pipeline::CalibrationInput &in, bool table_mode)
 {
     if (!table_mode) {  // a device recording: which focus moved how much, and when (judged by --expect)
+        // A dense grid: only the foci that crossed the threshold, one line each.
+        const bool all = v.foci.size() <= 12;
         std::fprintf(stderr, "%-6s %9s %9s %10s %12s\n", "focus", "x_mm", "y_mm", "peak_um", "at_ms");
-        for (const pipeline::FocusMetrics &m : v.foci)
+        size_t quiet = 0;
+        for (const pipeline::FocusMetrics &m : v.foci) {
+            if (!all && !m.crosses_threshold) {
+                quiet++;
+                continue;
+            }
             std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %12.1f\n", m.id, m.at.x_m * 1e3, m.at.y_m * 1e3,
                          m.peak_m * 1e6, m.peak_time_s * 1e3);
+        }
+        if (quiet > 0)
+            std::fprintf(stderr, "(%zu of %zu foci stayed below the %.1f um threshold)\n", quiet, v.foci.size(),
+                         in.calibration.threshold_m * 1e6);
         return;
     }
     // Up to a dozen foci, one line each; a dense grid as worst / median / best.
@@ -200,6 +214,13 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
         }
         std::fprintf(stderr, "peak below threshold at %zu foci; other foci cross at %zu; the area beyond lambda/2 crosses at %zu\n",
                      below, others, whole);
+        const auto worst = std::min_element(v.foci.begin(), v.foci.end(), [](const auto &a, const auto &b) {
+            return a.whole_area_contrast_db < b.whole_area_contrast_db;
+        });
+        if (worst->whole_area)
+            std::fprintf(stderr, "worst focus %u at (%.1f, %.1f) mm: whole-area contrast %.1f dB, peak %.2f um\n",
+                         worst->id, worst->at.x_m * 1e3, worst->at.y_m * 1e3, worst->whole_area_contrast_db,
+                         worst->peak_m * 1e6);
     }
     std::fprintf(stderr, "(threshold %.1f um, lambda/2 = %.1f mm, exciter force at full scale %.3g N)\n",
                  in.calibration.threshold_m * 1e6, v.foci.empty() ? 0.0 : v.foci[0].lambda_half_m * 1e3,
@@ -265,6 +286,19 @@ int run_calibrate(const CalibrateArgs &a)
     pipeline::CalibrationResult r = pipeline::calibrate(in, progress.callback());
     pipeline::write_table(a.table, in, r);
     const pipeline::PlacementReport &p = r.placement;
+    progress.note("placement: " + std::to_string(p.simulations) + " simulations, " +
+                  (p.focus_subset.size() == in.foci.points.size()
+                       ? std::string("every focus weighed")
+                       : std::to_string(p.focus_subset.size()) + " of " + std::to_string(in.foci.points.size()) +
+                             " foci weighed (farthest-point subset, every focus within " +
+                             fmt("%.0f mm", p.subset_cover_m * 1e3) + " of one)"));
+    {
+        const pipeline::StageTimes &st = r.times;
+        progress.note("stages: placement simulations " + fmt("%.2f s", st.simulation_s) + ", search " +
+                      fmt("%.2f s", st.search_s) + ", transfer matrix " + fmt("%.2f s", st.transfer_s) +
+                      ", signals " + fmt("%.2f s", st.signals_s) + ", verification " +
+                      fmt("%.2f s", st.verification_s));
+    }
     if (!p.regular.empty())
         progress.note("placement: predicted worst-case contrast " + std::to_string(p.chosen_contrast_db).substr(0, 5) +
                       " dB chosen vs " + std::to_string(p.regular_contrast_db).substr(0, 5) +

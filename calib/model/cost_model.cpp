@@ -66,7 +66,7 @@ CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::Cal
     // A reciprocity simulation: one source, a field copy every site_decimation
     // steps (a site recording without decimation reads every step's field).
     c.seconds_per_step_simulate = time_one(in.plate, so, 1, 0, node_steps, plan.site_decimation);
-    c.seconds_per_step_verify = time_one(in.plate, so, in.exciters.count, plan.foci, node_steps);
+    c.seconds_per_step_verify = time_one(in.plate, so, in.exciters.count, in.foci.points.size(), node_steps);
     c.seconds_per_node_step = c.seconds_per_step_simulate / double(plan.nodes);
     // Each site's recording is resampled to the search rate (soxr): timed on
     // one trace at the recording rate.
@@ -99,7 +99,7 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
     Prediction p;
     const double P = cost ? cost->threads : std::max(1, omp_get_max_threads());
     const double emitters = double(plan.emitters.size()), sites = double(plan.sites.size());
-    const double K = double(plan.foci);
+    const double K = double(in.foci.points.size());  // every focus is verified (the placement weighs a subset)
     // The Mindlin engine is double whatever the scene asks (engine/simulation.h).
     const engine::Precision prec = in.effects.thick_plate ? engine::Precision::f64 : in.simulation.precision;
     // Memory: each running simulation keeps its field and traces; the
@@ -112,6 +112,13 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
     p.recordings_mb = 2 * emitters * sites * in.calibration.window_s * plan.search_rate_hz * 4 / mb;
     // H and the spectra of its points (playback.h), kept through the verification.
     p.recordings_mb = std::max(p.recordings_mb, 3 * plan.transfer_bytes / mb);
+    // The verification keeps, per focus, the displacement at every focus
+    // (double) over the drive and its tail: K^2 traces, the term that grows
+    // fastest with a dense grid.
+    if (plan.transfer)
+        p.traces_mb += K * K * 8 *
+                       std::ceil((in.calibration.truncate_fraction * in.calibration.window_s +
+                                  in.calibration.verify_tail_s) * plan.search_rate_hz) / mb;
     p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;
     if (!cost)
         return p;
@@ -137,14 +144,14 @@ Prediction predict_verification(const pipeline::CalibrationInput &in, const pipe
 {
     Prediction p;
     const double P = cost ? cost->threads : std::max(1, omp_get_max_threads());
-    const double K = double(plan.foci);
+    const double K = double(in.foci.points.size());
     const engine::Precision prec = in.effects.thick_plate ? engine::Precision::f64 : in.simulation.precision;
     const double mb = 1024.0 * 1024.0;
     const double running = std::min(P, K);
     // Each running focus: its field and traces; every focus keeps its traces
     // and its |w| snapshot (float per node) until the report is written.
     p.fields_mb = running * simulation_bytes(plan.nodes, prec, 0, 0) / mb + K * double(plan.nodes) * 4 / mb;
-    p.traces_mb = K * simulation_bytes(0, prec, plan.foci, plan.drive_steps) / mb;
+    p.traces_mb = K * simulation_bytes(0, prec, in.foci.points.size(), plan.drive_steps) / mb;
     if (plan.transfer)
         p.recordings_mb = 3 * plan.transfer_bytes / mb;
     p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;

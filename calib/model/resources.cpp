@@ -1,6 +1,7 @@
 #include "model/resources.h"
 
 #include "model/error_model.h"
+#include "pipeline/focus_subset.h"
 #include "pipeline/plan.h"
 #include "pipeline/site_recording.h"
 #include "io/format.h"
@@ -10,6 +11,7 @@
 #include <malloc.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -168,9 +170,14 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
             return;  // plan() refuses it, naming the key, before enumerating anything
         const double sites = fixed ? double(s.exciters->positions.size())
                                    : double(pipeline::candidate_sites(band, spacing).size());
-        const double foci = double(s.foci->points.size());
         const double threads = std::max(1, omp_get_max_threads());
         const double rate = pipeline::search_rate(*s.pulse);
+        // The placement simulates the foci of its subset only (pipeline/focus_subset.h).
+        const double foci = std::min(
+            double(s.foci->points.size()),
+            double(pipeline::placement_focus_cap(
+                s.exciters->placement_foci, sites,
+                pipeline::contrast_model_lags(s.calibration->window_s, s.calibration->truncate_fraction, rate))));
         // Each running reciprocity simulation: a double per site and recorded
         // sample, and two chunks of field copies (pipeline/site_recording.h).
         const double decimation = double(pipeline::site_recording_options(k, rate).decimation);

@@ -1,6 +1,7 @@
 #include "pipeline/calibrate.h"
 
 #include "pipeline/calibrate_stages.h"
+#include "pipeline/first_failure.h"
 #include "pipeline/plan.h"
 #include "pipeline/verification.h"
 
@@ -92,6 +93,23 @@ void check_feasible(const CalibrationInput &in)
                                         ", " + fmt(p.y_m) + ") m is not inside the plate (0..." + fmt(lx) + ", 0..." +
                                         fmt(ly) + ")");
     }
+    // Foci are where a person touches: inside the active area.
+    const Rect &area = in.active.area;
+    for (size_t k = 0; k < in.foci.points.size(); k++) {
+        const Point p = in.foci.points[k].at;
+        if (!area.contains(p, 1e-9))
+            throw std::invalid_argument("foci.points_m: focus " + std::to_string(in.foci.points[k].id) + " at (" +
+                                        fmt(p.x_m) + ", " + fmt(p.y_m) + ") m is outside the active area [" +
+                                        fmt(area.x0_m) + ", " + fmt(area.y0_m) + ", " + fmt(area.x1_m) + ", " +
+                                        fmt(area.y1_m) + "]");
+    }
+    // Foci closer than one cell of the plate grid are not distinct points of
+    // the simulated plate (the source and receiver of each sit on its nodes).
+    const double h = in.plate->grid().h;
+    if (in.foci.pitch_m && *in.foci.pitch_m < h)
+        throw std::invalid_argument("foci.pitch_m: " + fmt(*in.foci.pitch_m) +
+                                    " m is finer than the simulation grid spacing (" + fmt(h) +
+                                    " m): foci closer than one grid cell are not distinct on the simulated plate");
     const Rect &a = in.active.area;
     if (!(a.x0_m < a.x1_m && a.y0_m < a.y1_m && a.x0_m >= 0 && a.y0_m >= 0 && a.x1_m <= lx && a.y1_m <= ly))
         throw std::invalid_argument("active_area: the rectangle must lie on the plate with x0 < x1 and y0 < y1");
@@ -136,8 +154,12 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
     const CalibrationPlan plan = pipeline::plan(in);
     CalibrationResult res;
 
-    // 1-2. Responses of the placement's emitters and the placement search.
+    // 1-2. Responses of the placement's emitters (the foci of its subset and
+    //      any probe points) and the placement search.
     place_exciters(in, plan, progress, res);
+    res.placement.focus_subset = plan.focus_subset;
+    res.placement.subset_cover_m = plan.subset_cover_m;
+    res.placement.simulations = plan.emitters.size();
 
     // 3. The transfer matrix of the placed exciters (the finger is composed in
     //    playback only, so H of the bare plate also serves the finger's scenes).
@@ -207,7 +229,11 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
     const auto keep = static_cast<size_t>(std::llround(in.calibration.truncate_fraction * double(n)));
     if (keep > H.samples)
         throw std::logic_error("transfer matrix shorter than the kept window");
-    std::vector<DriveSignals> out;
+    // One focus per thread; each focus's dither seed is its own, so the
+    // signals do not depend on the thread count.
+    std::vector<DriveSignals> out(in.foci.points.size());
+    FirstFailure failure;
+#pragma omp parallel for schedule(dynamic)
     for (size_t f = 0; f < in.foci.points.size(); f++) {
         std::vector<std::vector<double>> rec(H.channels, std::vector<double>(n, 0.0));
         for (size_t c = 0; c < H.channels; c++) {
@@ -219,13 +245,15 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
                 rec[c][t] = acc;
             }
         }
-        tro.dither_seed = in.exciters.seed * 1000003u + f;
+        TimeReversalOptions o = tro;
+        o.dither_seed = in.exciters.seed * 1000003u + f;
         try {
-            out.push_back(make_drive_signals(rec, H.rate_hz, pulse_duration_s(in.pulse), tro));
-        } catch (const std::invalid_argument &e) {
-            throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
+            out[f] = make_drive_signals(rec, H.rate_hz, pulse_duration_s(in.pulse), o);
+        } catch (const std::exception &e) {
+            failure.keep(f, "focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
         }
     }
+    failure.rethrow();
     return out;
 }
 

@@ -45,6 +45,12 @@ struct PlacementReport {
     double chosen_variety = 0, regular_variety = 0;          // the seed's criterion
     unsigned evaluations = 0;
     std::vector<size_t> probe_rows;   // extra points the contrast was checked at (none when K >= 4)
+    // The foci the search weighed (focus_subset.h): indices into the scene's
+    // foci, every focus within subset_cover_m of one of them; one simulation
+    // per member and probe point.
+    std::vector<size_t> focus_subset;
+    double subset_cover_m = 0;
+    size_t simulations = 0;
 };
 
 struct FocusMetrics {
@@ -53,7 +59,7 @@ struct FocusMetrics {
     double peak_m = 0;              // max |w| at the focus while its stored signals play
     double peak_time_s = 0;         // from the start of playback
     double lead_time_s = 0;         // playback start to the focal peak (what a person waits, before device latency)
-    double max_other_foci_m = 0;    // max |w| at every other focus, at all times
+    double max_other_foci_m = 0;    // max |w| at every other focus farther than lambda/2, at all times
     double other_foci_contrast_db = 0;  // 20 log10(peak / max_other)
     double spot_diameter_m = 0;     // circle of the area around the focus where |w| >= peak / 2
     // At the focus instant: the largest |w| on the plate farther than lambda/2

@@ -1,6 +1,7 @@
 #include "pipeline/plan.h"
 
 #include "pipeline/calibrate.h"
+#include "pipeline/focus_subset.h"
 #include "pipeline/site_recording.h"
 #include "pipeline/transfer.h"
 
@@ -84,14 +85,26 @@ CalibrationPlan plan(const CalibrationInput &in)
         }
         p.sites = candidate_sites(p.band, p.site_spacing_m);
     }
-    for (const FocusPoint &f : in.foci.points)
-        p.emitters.push_back(f.at);
+    p.search_rate_hz = search_rate(in.pulse);
+    {  // The placement search weighs a bounded subset of the foci (focus_subset.h).
+        std::vector<Point> at;
+        for (const FocusPoint &f : in.foci.points)
+            at.push_back(f.at);
+        p.placement_focus_cap = placement_focus_cap(
+            in.exciters.placement_foci, double(p.sites.size()),
+            contrast_model_lags(in.calibration.window_s, in.calibration.truncate_fraction, p.search_rate_hz));
+        FocusSubset s = farthest_point_subset(at, p.placement_focus_cap, p.lambda_centre_m / 2);
+        std::sort(s.members.begin(), s.members.end());
+        p.focus_subset = s.members;
+        p.subset_cover_m = s.covering_radius_m;
+        for (std::size_t i : p.focus_subset)
+            p.emitters.push_back(at[i]);
+    }
     p.foci = p.emitters.size();
     if (!fixed) {
         const std::vector<Point> probes = probe_points(in, p.lambda_centre_m / 2);
         p.emitters.insert(p.emitters.end(), probes.begin(), probes.end());
     }
-    p.search_rate_hz = search_rate(in.pulse);
 
     p.nodes = in.plate->grid().node_count();
     p.time_step_s = in.simulation.time_step_s > 0 ? in.simulation.time_step_s
@@ -109,7 +122,8 @@ CalibrationPlan plan(const CalibrationInput &in)
     const TransferOptions t = transfer_options(in, p.time_step_s);
     const ObservationLattice lat = observation_lattice(in, t.lattice_stride);
     p.transfer_steps = t.samples * t.decimation;
-    p.transfer_bytes = double(in.exciters.count) * double(lat.size() + p.foci) * double(t.samples) * sizeof(float);
+    p.transfer_bytes =
+        double(in.exciters.count) * double(lat.size() + in.foci.points.size()) * double(t.samples) * sizeof(float);
     return p;
 }
 

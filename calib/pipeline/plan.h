@@ -29,9 +29,13 @@ struct CalibrationPlan {
     double lambda_centre_m = 0;    // Kirchhoff A0 wavelength at the pulse centre
     double site_spacing_m = 0;     // candidate lattice (0 for placement = "fixed")
     std::vector<Point> sites;      // candidate exciter sites; placement = "fixed": the given positions
-    // One reciprocity simulation per emitter: the foci, then the probe points.
+    // One reciprocity simulation per emitter: the foci of the placement
+    // subset (focus_subset.h), then the probe points.
     std::vector<Point> emitters;
-    std::size_t foci = 0;
+    std::size_t foci = 0;                     // emitters that are foci: focus_subset.size()
+    std::vector<std::size_t> focus_subset;    // indices into the scene's foci, ascending
+    double subset_cover_m = 0;                // every focus lies this close to a subset member
+    std::size_t placement_focus_cap = 0;      // the cap the subset was chosen under
     double search_rate_hz = 0;     // rate of the stored (decimated) recordings
 
     // The simulations, each on one core (the foci run in parallel).

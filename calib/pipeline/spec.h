@@ -37,6 +37,9 @@ struct ExcitersSpec {
     // The contrast the search maximizes: over all times (the seed's Fig. 8
     // criterion) or at the focus instant only (its Fig. 4 snapshots).
     bool contrast_at_focus_instant = false;
+    // At most this many foci weigh in the placement search (focus_subset.h);
+    // unset: the default cap there.
+    std::optional<unsigned> placement_foci;
 };
 
 // [foci]
@@ -45,7 +48,8 @@ struct FocusPoint {
     Point at;
 };
 struct FociSpec {
-    std::vector<FocusPoint> points;  // from grid = [nx, ny] inside the active area, or explicit points
+    std::vector<FocusPoint> points;  // from grid = [nx, ny] or pitch_m inside the active area, or explicit points
+    std::optional<double> pitch_m;   // the square grid's pitch (pitch_m = ...)
 };
 
 // [calibration]

@@ -1,5 +1,6 @@
 #include "pipeline/verification.h"
 
+#include "pipeline/first_failure.h"
 #include "pipeline/peaks.h"
 #include "pipeline/playback.h"
 
@@ -68,6 +69,12 @@ std::vector<float> upsample_lanczos(const std::vector<float> &f, int cols, int r
 double db(double a, double b) { return 20 * std::log10(a / std::max(b, 1e-300)); }
 
 }  // namespace
+
+bool is_other_focus(const CalibrationInput &in, std::size_t f, std::size_t g, double lambda_half_m)
+{
+    const Point a = in.foci.points[f].at, b = in.foci.points[g].at;
+    return g != f && std::hypot(a.x_m - b.x_m, a.y_m - b.y_m) > lambda_half_m;
+}
 
 std::vector<float> to_unit(const std::vector<int16_t> &s)
 {
@@ -154,6 +161,7 @@ void require_finite(const std::vector<float> &w, uint32_t id)
             throw std::runtime_error("focus " + std::to_string(id) + ": non-finite displacement in the playback");
 }
 
+
 }  // namespace
 
 std::vector<double> focal_peaks(const CalibrationInput &in, const TransferMatrix &H,
@@ -166,11 +174,20 @@ std::vector<double> focal_peaks(const CalibrationInput &in, const TransferMatrix
         foci[f] = H.exact_begin() + f;
     Playback pb(H, foci, drive, output_samples(in, H, drive));
     std::vector<double> peaks(K);
+    // One focus per thread (Playback::field is const, FFTW's execute is
+    // thread-safe): the figures do not depend on the thread count.
+    FirstFailure failure;
+#pragma omp parallel for schedule(dynamic)
     for (size_t f = 0; f < K; f++) {
-        const auto w = pb.field(drive_forces(in, H, to_unit(signals[f]), unsigned(C), rate_hz), {f});
-        require_finite(w[0], in.foci.points[f].id);
-        peaks[f] = refined_peak(w[0]).value;
+        try {
+            const auto w = pb.field(drive_forces(in, H, to_unit(signals[f]), unsigned(C), rate_hz), {f});
+            require_finite(w[0], in.foci.points[f].id);
+            peaks[f] = refined_peak(w[0]).value;
+        } catch (const std::exception &e) {
+            failure.keep(f, e.what());
+        }
     }
+    failure.rethrow();
     return peaks;
 }
 
@@ -210,7 +227,8 @@ Verification verify_signals_with(const CalibrationInput &in, const TransferMatri
         v.grid_h_m = lat.spacing_m;
         v.max_abs.resize(K);
     }
-    for (size_t f = 0; f < K; f++) {
+    // One focus: its playback, the figures at the foci, and over the whole area.
+    auto measure = [&](size_t f) {
         const std::vector<float> frames = to_unit(signals[f]);
         const auto w = pb.field(drive_forces(in, H, frames, unsigned(C), rate_hz));
         FocusMetrics &m = v.foci[f];
@@ -223,16 +241,20 @@ Verification verify_signals_with(const CalibrationInput &in, const TransferMatri
         m.peak_m = pk.value;
         m.peak_time_s = pk.index * M * k + k;  // trace index s M is the state after step s M
         m.lead_time_s = m.peak_time_s;
+        size_t others = 0;
         for (size_t g = 0; g < K; g++) {
             v.traces[f].emplace_back(w[g].begin(), w[g].end());
-            if (g != f && sample_peak(w[g].data(), w[g].size()) >= 0.8 * m.max_other_foci_m)
+            if (!is_other_focus(in, f, g, lambda_half))
+                continue;
+            others++;
+            if (sample_peak(w[g].data(), w[g].size()) >= 0.8 * m.max_other_foci_m)
                 m.max_other_foci_m = std::max(m.max_other_foci_m, refined_peak(w[g]).value);
         }
-        m.other_foci_contrast_db = K > 1 ? db(m.peak_m, m.max_other_foci_m) : 0.0;
+        m.other_foci_contrast_db = others > 0 ? db(m.peak_m, m.max_other_foci_m) : 0.0;
         m.crosses_threshold = m.peak_m >= thr;
         m.others_below_threshold = m.max_other_foci_m < thr;
         if (L == 0)
-            continue;
+            return;
 
         // Whole area, all times: sample maxima, then the candidates refined.
         std::vector<float> &mx = v.max_abs[f];
@@ -294,9 +316,24 @@ Verification verify_signals_with(const CalibrationInput &in, const TransferMatri
             x = std::abs(x);
         m.spot_diameter_m = spot_diameter(fine, (lat.cols - 1) * lat.stride, (lat.rows - 1) * lat.stride,
                                           lat.spacing_m / lat.stride, m.at, m.peak_m / 2);
-        if (progress)
-            progress("verify", f + 1, K);
+    };
+    FirstFailure failure;
+    size_t done = 0;
+#pragma omp parallel for schedule(dynamic)
+    for (size_t f = 0; f < K; f++) {
+        try {
+            measure(f);
+        } catch (const std::exception &e) {
+            failure.keep(f, e.what());
+        }
+#pragma omp critical(verification_progress)
+        {
+            done++;
+            if (progress)
+                progress("verify", done, K);
+        }
     }
+    failure.rethrow();
     if (L > 0 && K > 0) {
         size_t worst = 0;
         for (size_t f = 1; f < K; f++)

@@ -48,6 +48,12 @@ Verification verify_drive_forward(const CalibrationInput &in, const std::vector<
 // focus where |w| >= level, on a (nx + 1) x (ny + 1) grid of spacing h.
 double spot_diameter(const std::vector<float> &field, int nx, int ny, double h, Point focus, double level);
 
+// Whether focus g counts as another focus of focus f in the other-foci
+// criterion: farther than lambda/2 from it. On a grid finer than the focal
+// spot the neighbours inside the spot cross the threshold by construction;
+// on the seed's 3 x 3 grid (167 mm apart, lambda/2 = 81 mm) every focus counts.
+bool is_other_focus(const CalibrationInput &in, std::size_t f, std::size_t g, double lambda_half_m);
+
 // int16 samples as floats at full scale 1.0.
 std::vector<float> to_unit(const std::vector<int16_t> &s);
 

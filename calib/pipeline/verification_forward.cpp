@@ -110,7 +110,7 @@ Verification verify_signals_forward(const CalibrationInput &in, const std::vecto
                         m.peak_m = a;
                         peak_step = s;
                     }
-                    if (gi != f)
+                    if (is_other_focus(in, f, gi, lambda_half))
                         m.max_other_foci_m = std::max(m.max_other_foci_m, a);
                 }
             }
@@ -132,7 +132,11 @@ Verification verify_signals_forward(const CalibrationInput &in, const std::vecto
                                                          static_cast<double>(v.snapshots[f][g.node(i, j)]));
                 m.field_contrast_db = 20 * std::log10(m.peak_m / std::max(m.max_elsewhere_m, 1e-300));
             }
-            m.other_foci_contrast_db = K > 1 ? 20 * std::log10(m.peak_m / std::max(m.max_other_foci_m, 1e-300)) : 0.0;
+            bool others = false;
+            for (size_t gi = 0; gi < K; gi++)
+                others |= is_other_focus(in, f, gi, lambda_half);
+            m.other_foci_contrast_db =
+                others ? 20 * std::log10(m.peak_m / std::max(m.max_other_foci_m, 1e-300)) : 0.0;
             m.crosses_threshold = m.peak_m >= in.calibration.threshold_m;
             m.others_below_threshold = m.max_other_foci_m < in.calibration.threshold_m;
             if (f == 0)

@@ -2,8 +2,10 @@
 
 #include "io/atomic_file.h"
 #include "physics/dispersion.h"
+#include "pipeline/verification.h"
 #include "report/field_image.h"
 #include "report/modes_section.h"
+#include "report/report_fields.h"
 #include "report/plot.h"
 
 #include <toml++/toml.h>
@@ -109,7 +111,10 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                                 {"chosen_distance_variety", p.chosen_variety},
                                 {"regular_distance_variety", p.regular_variety},
                                 {"candidate_sites", static_cast<int64_t>(p.sites.size())},
-                                {"evaluations", static_cast<int64_t>(p.evaluations)}});
+                                {"evaluations", static_cast<int64_t>(p.evaluations)},
+                                {"simulations", static_cast<int64_t>(p.simulations)},
+                                {"subset_foci", static_cast<int64_t>(p.focus_subset.size())},
+                                {"subset_cover_m", p.subset_cover_m}});
         const pipeline::StageTimes &s = c.result->times;
         root.insert("times_s", toml::table{{"simulation", s.simulation_s},
                                            {"search", s.search_s},
@@ -143,14 +148,6 @@ std::string esc(const std::string &s)
     return o;
 }
 
-std::string num(double v, int prec = 3)
-{
-    std::ostringstream os;
-    os.precision(prec);
-    os << v;
-    return os.str();
-}
-
 // Plate coordinates -> SVG pixels (y up on the plate, down in SVG).
 struct View {
     double scale, lx, ly, pad = 20;
@@ -181,12 +178,23 @@ std::string layout_svg(const ReportContext &c)
         }
     }
     const double spot = c.input->foci.points.empty() ? 0 : c.verification->foci[0].lambda_half_m / 2;
+    const bool dense = !few_foci(c);  // a dense grid: dots, the placement subset ringed, no labels
     for (const pipeline::FocusPoint &f : c.input->foci.points) {
-        s << "<circle cx='" << v.X(f.at.x_m) << "' cy='" << v.Y(f.at.y_m) << "' r='" << spot * v.scale
-          << "' fill='none' stroke='#e55' stroke-dasharray='3 3'/>";
-        s << "<circle cx='" << v.X(f.at.x_m) << "' cy='" << v.Y(f.at.y_m) << "' r='3' fill='#e55'/>";
-        s << "<text x='" << v.X(f.at.x_m) + 5 << "' y='" << v.Y(f.at.y_m) - 5 << "' fill='#a22'>" << f.id << "</text>";
+        if (!dense) {
+            s << "<circle cx='" << v.X(f.at.x_m) << "' cy='" << v.Y(f.at.y_m) << "' r='" << spot * v.scale
+              << "' fill='none' stroke='#e55' stroke-dasharray='3 3'/>";
+            s << "<text x='" << v.X(f.at.x_m) + 5 << "' y='" << v.Y(f.at.y_m) - 5 << "' fill='#a22'>" << f.id
+              << "</text>";
+        }
+        s << "<circle cx='" << v.X(f.at.x_m) << "' cy='" << v.Y(f.at.y_m) << "' r='" << (dense ? 2 : 3)
+          << "' fill='#e55'/>";
     }
+    if (dense && c.result)
+        for (size_t i : c.result->placement.focus_subset) {
+            const Point p = c.input->foci.points[i].at;
+            s << "<circle cx='" << v.X(p.x_m) << "' cy='" << v.Y(p.y_m) << "' r='6' fill='none' stroke='#a22' "
+              << "stroke-width='1.5'/>";
+        }
     for (size_t e = 0; e < c.exciters.size(); e++) {
         const Point p = c.exciters[e];
         s << "<rect x='" << v.X(p.x_m) - 5 << "' y='" << v.Y(p.y_m) - 5
@@ -195,90 +203,6 @@ std::string layout_svg(const ReportContext &c)
     }
     s << "</svg>";
     return s.str();
-}
-
-// |w| at each focus's instant on the node lattice, on one colour scale in um
-// for all foci (one colour, one displacement), the threshold as a contour.
-// The plate, the active area, the foci and the exciters, the threshold as a
-// contour; the colour scale from 0 to vmax_m.
-FieldStyle field_style(const ReportContext &c, double vmax_m, int width_px)
-{
-    const auto &pp = c.input->plate->params();
-    FieldStyle s;
-    s.vmax = vmax_m > 0 ? vmax_m : 1e-6;
-    s.threshold = c.input->calibration.threshold_m;
-    s.plate_x_m = pp.size_x_m;
-    s.plate_y_m = pp.size_y_m;
-    const pipeline::Rect &a = c.input->active.area;
-    s.active_area = std::array<double, 4>{a.x0_m, a.y0_m, a.x1_m, a.y1_m};
-    for (const pipeline::FocusPoint &p : c.input->foci.points)
-        s.markers.push_back({p.at.x_m, p.at.y_m, std::to_string(p.id), Marker::Kind::focus});
-    for (size_t e = 0; e < c.exciters.size(); e++)
-        s.markers.push_back({c.exciters[e].x_m, c.exciters[e].y_m, std::to_string(e), Marker::Kind::exciter});
-    s.width_px = width_px;
-    return s;
-}
-
-FieldMap lattice_map(const pipeline::Verification &v, std::vector<float> values)
-{
-    return {v.grid_nx + 1, v.grid_ny + 1, 0, 0, v.grid_h_m, v.grid_h_m, std::move(values)};
-}
-
-// The worst focus (least whole-area contrast): the largest |w| each point of
-// the plate reaches at any time of the playback and its decay (a ghost is a
-// bright patch away from the focus), and |w| over time as a movie, both on
-// the scale of its focal peak with the threshold as a contour.
-std::string worst_focus_html(const ReportContext &c)
-{
-    const pipeline::Verification &v = *c.verification;
-    const size_t f = v.worst_focus;
-    if (v.max_abs.size() <= f || v.max_abs[f].empty() || v.frames.empty())
-        return "";
-    const pipeline::FocusMetrics &m = v.foci[f];
-    std::ostringstream h;
-    h << "<h2>Whole area: the worst focus</h2><p>Focus " << m.id << " has the least whole-area contrast ("
-      << num(m.whole_area_contrast_db) << " dB): its focal peak over the largest |w| anywhere in the active area "
-      << "farther than lambda/2 from it, at any time.</p><div class='grid'>";
-    FieldStyle s = field_style(c, m.peak_m, 440);
-    s.title = "max |w| over all times, focus " + std::to_string(m.id);
-    const std::vector<std::string> img = render_field_uris({lattice_map(v, v.max_abs[f])}, {s});
-    h << "<figure class='cell'><img src='" << img[0] << "' alt='max |w| over all times'><figcaption>max |w| at "
-      << "every point over the playback and its decay; white line: the threshold</figcaption></figure></div>";
-    // At most 60 frames over the whole run: enough to follow a wave front
-    // across the plate, small enough for a self-contained page.
-    const size_t step = std::max<size_t>(1, (v.frames.size() + 59) / 60);
-    std::vector<FieldMap> frames;
-    std::vector<double> times;
-    for (size_t k = 0; k < v.frames.size(); k += step) {
-        std::vector<float> a(v.frames[k].size());
-        for (size_t n = 0; n < a.size(); n++)
-            a[n] = std::abs(v.frames[k][n]);
-        frames.push_back(lattice_map(v, std::move(a)));
-        times.push_back(static_cast<double>(k) / v.frame_rate_hz);
-    }
-    s.title = "|w| over time, focus " + std::to_string(m.id);
-    s.width_px = 400;
-    h << "<figure>" << field_movie_html(frames, times, s, "worst-focus-movie")
-      << "<figcaption>|w| from the start of playback, every " << num(1e3 * step / v.frame_rate_hz)
-      << " ms; same colour scale as above</figcaption></figure>";
-    return h.str();
-}
-
-std::vector<std::string> snapshot_imgs(const ReportContext &c)
-{
-    const pipeline::Verification &v = *c.verification;
-    float vmax_m = 0;
-    for (const std::vector<float> &snap : v.snapshots)
-        for (float w : snap)
-            vmax_m = std::max(vmax_m, w);
-    const FieldStyle s = field_style(c, vmax_m, 440);
-    std::vector<FieldMap> maps;
-    for (const std::vector<float> &snap : v.snapshots)
-        maps.push_back(lattice_map(v, snap));
-    std::vector<std::string> imgs = render_field_uris(maps, {s});
-    for (size_t f = 0; f < imgs.size(); f++)
-        imgs[f] = "<img src='" + imgs[f] + "' alt='|w| when focus " + std::to_string(v.foci[f].id) + " peaks'>";
-    return imgs;
 }
 
 // Min/max per bin: a long trace drawn with <= 2 * bins points, peaks kept.
@@ -312,7 +236,25 @@ std::string traces_svg(const ReportContext &c, size_t f)
     const double thr = c.input->calibration.threshold_m * 1e6;
     const std::vector<std::vector<double>> &tr = v.traces[f];
     const double t_end = static_cast<double>(tr[0].size()) / v.trace_rate_hz * 1e3;
+    const bool many = !few_foci(c);
+    if (c.mode == "table" && many) {  // a dense grid: the other foci as one curve, their largest |w|
+        std::vector<double> other(tr[f].size(), 0.0);
+        size_t others = 0;
+        for (size_t g = 0; g < tr.size(); g++) {
+            if (!pipeline::is_other_focus(*c.input, f, g, v.foci[f].lambda_half_m))
+                continue;
+            others++;
+            for (size_t n = 0; n < other.size(); n++)
+                other[n] = std::max(other[n], std::abs(tr[g][n]));
+        }
+        Series o = envelope_series("largest |w| at the " + std::to_string(others) + " foci beyond lambda/2", other,
+                                   v.trace_rate_hz, 600, 1e6);
+        o.color = Color{150, 150, 160};
+        p.add(std::move(o));
+    }
     for (size_t g = 0; g < tr.size(); g++) {
+        if (c.mode == "table" && many && g != f)
+            continue;
         Series s = envelope_series(c.mode == "table" && g == f ? "focus " + std::to_string(v.foci[g].id) + " (driven)"
                                                                : (g == 0 && c.mode == "table" ? "other foci" : ""),
                                    tr[g], v.trace_rate_hz, 600, 1e6);
@@ -320,12 +262,14 @@ std::string traces_svg(const ReportContext &c, size_t f)
             s.color = g == f ? Color{214, 39, 40} : Color{150, 150, 160};
             if (g == f)
                 s.width_px = 1.8;
-        } else {
+        } else if (!many || v.foci[g].crosses_threshold) {  // a dense grid: only the foci that cross are named
             s.label = "focus " + std::to_string(v.foci[g].id);
+        } else {
+            s.color = Color{150, 150, 160};
         }
         p.add(std::move(s));
     }
-    if (c.mode == "table")  // draw the driven focus on top
+    if (c.mode == "table" && !many)  // draw the driven focus on top
         std::rotate(p.series.begin() + static_cast<long>(f), p.series.begin() + static_cast<long>(f) + 1, p.series.end());
     p.add(Series("threshold", {0, t_end}, {thr, thr}, LineStyle::dashed, Color{0, 0, 0}));
     p.add(Series("", {0, t_end}, {-thr, -thr}, LineStyle::dashed, Color{0, 0, 0}));
@@ -362,6 +306,7 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     make_dir(dir);
     const pipeline::CalibrationInput &in = *c.input;
     const pipeline::Verification &v = *c.verification;
+    const std::vector<size_t> shown = shown_foci(c);
     std::ostringstream h;
     char date[32];
     const std::time_t now = std::time(nullptr);
@@ -397,7 +342,13 @@ void write_html_report(const std::string &dir, const ReportContext &c)
           << (p.regular.empty() ? "-" : num(p.regular_contrast_db)) << "</td><td>"
           << (p.regular.empty() ? "-" : num(p.regular_variety)) << "</td></tr><tr><td style='text-align:left'>chosen</td><td>"
           << num(p.chosen_contrast_db) << "</td><td>" << num(p.chosen_variety) << "</td></tr></table><p>"
-          << p.sites.size() << " candidate sites, " << p.evaluations << " placements evaluated"
+          << p.sites.size() << " candidate sites, " << p.evaluations << " placements evaluated, "
+          << p.simulations << " simulations: "
+          << (p.focus_subset.size() == v.foci.size()
+                  ? "every focus weighed"
+                  : std::to_string(p.focus_subset.size()) + " of the " + std::to_string(v.foci.size()) +
+                        " foci weighed (farthest-point subset, ringed in the layout; every focus within " +
+                        num(p.subset_cover_m * 1e3) + " mm of one)")
           << (p.probe_rows.empty() ? "" : ", contrast also checked at " + std::to_string(p.probe_rows.size()) + " probe points")
           << ".</p>";
     }
@@ -428,17 +379,15 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     }
     h << "</table>";
     if (c.mode == "table") {
-        h << "<h2>Wave field at the focus instant</h2><div class='grid'>";
-        const std::vector<std::string> snapshots = snapshot_imgs(c);
-        for (size_t f = 0; f < v.foci.size(); f++)
-            h << "<figure class='cell'>" << snapshots[f] << "<figcaption>|w| when focus "
-              << v.foci[f].id << " peaks (" << num(v.foci[f].peak_time_s * 1e3)
-              << " ms); one colour scale for all foci, white line: the threshold</figcaption></figure>";
-        h << "</div>" << worst_focus_html(c);
+        h << field_sections_html(c, shown);
     }
     h << "<h2>Displacement at the foci</h2><div class='grid'>";
-    for (size_t f = 0; f < v.traces.size(); f++)
-        h << "<figure class='cell'>" << traces_svg(c, f) << "</figure>";
+    if (c.mode != "table")
+        h << "<figure class='cell'>" << traces_svg(c, 0) << "</figure>";
+    else
+        for (size_t f : shown)
+            if (f < v.traces.size())
+                h << "<figure class='cell'>" << traces_svg(c, f) << "</figure>";
     h << "</div>";
     if (c.modes)
         h << modes_html(*c.modes, *in.plate);

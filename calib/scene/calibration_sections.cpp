@@ -121,6 +121,8 @@ pipeline::ExcitersSpec parse_exciters(const Fields &f)
     }
     e.restarts = count_in(f, "restarts", e.restarts, 1, 1000);
     e.iterations = count_in(f, "iterations", e.iterations, 0, 1000000);
+    if (f.has("placement_foci"))
+        e.placement_foci = count_in(f, "placement_foci", 0, 2, 1024);
     if (f.has("positions_m")) {
         if (e.placement != PlacementMode::fixed)
             f.fail("positions_m", "only with placement = \"fixed\"");
@@ -141,9 +143,11 @@ pipeline::ExcitersSpec parse_exciters(const Fields &f)
 pipeline::FociSpec parse_foci(const Fields &f, const pipeline::ActiveAreaSpec &active)
 {
     pipeline::FociSpec s;
-    const bool grid = f.has("grid"), points = f.has("points_m");
-    if (grid == points)
-        f.fail(grid ? "points_m" : "grid", "give exactly one of grid = [nx, ny] or points_m = [[x, y], ...]");
+    const bool grid = f.has("grid"), pitch = f.has("pitch_m"), points = f.has("points_m");
+    if (int(grid) + int(pitch) + int(points) != 1)
+        f.fail(points ? "points_m" : pitch ? "pitch_m" : "grid",
+               "give exactly one of grid = [nx, ny], pitch_m = p or points_m = [[x, y], ...]");
+    const pipeline::Rect &a = active.area;
     if (grid) {
         auto g = f.numbers("grid", 2);
         if (!g)
@@ -153,23 +157,40 @@ pipeline::FociSpec parse_foci(const Fields &f, const pipeline::ActiveAreaSpec &a
             f.fail("grid", "needs whole numbers >= 1 and at most 1024 foci");
         // Cell centres of an nx x ny division of the active area, row by row
         // from the lower-left corner (x fastest), ids from 1.
-        const pipeline::Rect &a = active.area;
         uint32_t id = 1;
         for (int j = 0; j < static_cast<int>(ny); j++)
             for (int i = 0; i < static_cast<int>(nx); i++)
                 s.points.push_back({id++, {a.x0_m + (a.x1_m - a.x0_m) * (i + 0.5) / nx,
                                            a.y0_m + (a.y1_m - a.y0_m) * (j + 0.5) / ny}});
+    } else if (pitch) {
+        // A square grid of this pitch filling the active area: as many points
+        // per axis as fit (the span a multiple of the pitch), centred, row by
+        // row from the lower-left corner (x fastest), ids from 1. Whether the
+        // plate grid resolves the pitch is checked once the grid is known
+        // (pipeline::check_feasible).
+        const double p = *f.positive("pitch_m");
+        const double w = a.x1_m - a.x0_m, h = a.y1_m - a.y0_m;
+        const double nx = std::floor(w / p * (1 + 1e-9)) + 1, ny = std::floor(h / p * (1 + 1e-9)) + 1;
+        if (!(nx * ny <= 1024))
+            f.fail("pitch_m", format_number(p) + " m fills the " + format_number(w) + " x " + format_number(h) +
+                                  " m active area with " + format_number(nx * ny) + " foci, more than 1024");
+        const double ox = a.x0_m + (w - (nx - 1) * p) / 2, oy = a.y0_m + (h - (ny - 1) * p) / 2;
+        uint32_t id = 1;
+        for (int j = 0; j < static_cast<int>(ny); j++)
+            for (int i = 0; i < static_cast<int>(nx); i++)
+                s.points.push_back({id++, {ox + i * p, oy + j * p}});
+        s.pitch_m = p;
     } else {
         std::vector<pipeline::Point> pts = point_list(f, "points_m");
         if (pts.empty() || pts.size() > 1024)
             f.fail("points_m", "needs 1 to 1024 points");
         std::vector<uint32_t> ids;
         if (const toml::node *n = f.node("ids")) {
-            const toml::array *a = n->as_array();
-            if (!a || a->size() != pts.size())
+            const toml::array *arr = n->as_array();
+            if (!arr || arr->size() != pts.size())
                 f.fail("ids", "must be an array of " + std::to_string(pts.size()) + " integers (one per point)");
             std::set<int64_t> seen;
-            for (const toml::node &e : *a) {
+            for (const toml::node &e : *arr) {
                 auto v = e.value<int64_t>();
                 if (!v || *v < 0 || *v > 0xFFFFFFFFll || !seen.insert(*v).second)
                     f.fail("ids", "must be distinct integers in [0, 4294967295]");
@@ -179,8 +200,8 @@ pipeline::FociSpec parse_foci(const Fields &f, const pipeline::ActiveAreaSpec &a
         for (size_t i = 0; i < pts.size(); i++)
             s.points.push_back({ids.empty() ? static_cast<uint32_t>(i + 1) : ids[i], pts[i]});
     }
-    if (f.has("ids") && grid)
-        f.fail("ids", "only with points_m (grid foci are numbered 1.. row by row)");
+    if (f.has("ids") && !points)
+        f.fail("ids", "only with points_m (grid and pitch_m foci are numbered 1.. row by row)");
     return s;
 }
 

@@ -163,14 +163,15 @@ void parse_exciters_section(const toml::table &t, Scene &scene)
     scene.exciters = parse_exciters(Fields(t, scene.file, "exciters",
                                            {"count", "placement", "criterion", "seed", "min_spacing_m",
                                             "force_full_scale_n", "positions_m", "site_spacing_m", "restarts",
-                                            "iterations", "contrast_window"}));
+                                            "iterations", "contrast_window", "placement_foci"}));
 }
 
 void parse_foci_section(const toml::table &t, Scene &scene)
 {
-    Fields f(t, scene.file, "foci", {"grid", "points_m", "ids"});
-    if (f.has("grid") && !scene.active_area)
-        f.fail("grid", "needs an [active_area] to divide (or give points_m)");
+    Fields f(t, scene.file, "foci", {"grid", "pitch_m", "points_m", "ids"});
+    for (const char *key : {"grid", "pitch_m"})
+        if (f.has(key) && !scene.active_area)
+            f.fail(key, "needs an [active_area] to fill (or give points_m)");
     scene.foci = parse_foci(f, scene.active_area.value_or(pipeline::ActiveAreaSpec{}));
 }
 

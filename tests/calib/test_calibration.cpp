@@ -103,7 +103,7 @@ TEST(CalibrationScene, EveryBadValueNamesItsKey)
         {"restarts = 2", "restarts = 0", "small.toml: exciters.restarts: must lie in [1, 1000], got 0"},
         {"grid = [2, 2]", "grid = [2.5, 2]", "small.toml: foci.grid: needs whole numbers >= 1 and at most 1024 foci"},
         {"grid = [2, 2]", "grid = [2, 2]\npoints_m = [[0.1, 0.1]]",
-         "small.toml: foci.points_m: give exactly one of grid = [nx, ny] or points_m = [[x, y], ...]"},
+         "small.toml: foci.points_m: give exactly one of grid = [nx, ny], pitch_m = p or points_m = [[x, y], ...]"},
         {"grid = [2, 2]", "points_m = [[0.1, 0.1], [0.2]]", "small.toml: foci.points_m: entry 1 must be an [x, y] pair in metres"},
         {"grid = [2, 2]", "points_m = [[0.1, 0.1], [0.2, 0.2]]\nids = [1, 1]",
          "small.toml: foci.ids: must be distinct integers in [0, 4294967295]"},
