@@ -1,6 +1,7 @@
 #include "pipeline/plan.h"
 
 #include "pipeline/calibrate.h"
+#include "pipeline/lead_time.h"
 #include "pipeline/transfer.h"
 
 #include <algorithm>
@@ -97,7 +98,7 @@ CalibrationPlan plan(const CalibrationInput &in)
                                                    : in.simulation.courant * in.plate->max_time_step();
     p.window_steps = steps_for(in.calibration.window_s, p.time_step_s);
     // The drive is the kept part of the window (time_reversal.cpp), then the tail.
-    p.drive_steps = steps_for(in.calibration.truncate_fraction * in.calibration.window_s + in.calibration.verify_tail_s,
+    p.drive_steps = steps_for(kept_window_s(in) + in.calibration.verify_tail_s,
                               p.time_step_s);
     p.transfer = transfer_holds(in);
     if (!p.transfer)
