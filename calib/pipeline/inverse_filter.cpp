@@ -2,6 +2,8 @@
 
 #include "pipeline/calibrate.h"
 #include "pipeline/lead_time.h"
+#include "pipeline/peaks.h"
+#include "pipeline/playback.h"
 #include "pipeline/pulse.h"
 
 #include <Eigen/Dense>
@@ -118,11 +120,13 @@ InverseFilterDesign design_inverse_filter(const TransferMatrix &H, const Inverse
     // The data part of the normal matrix: the focus and the control points.
     std::vector<std::size_t> points{p.focus};
     std::vector<double> weights{o.focus_weight};
-    for (std::size_t q : p.control) {
-        if (q >= H.point_count())
+    if (!p.control_weights.empty() && p.control_weights.size() != p.control.size())
+        throw std::invalid_argument("inverse filter: one weight per control point");
+    for (std::size_t i = 0; i < p.control.size(); i++) {
+        if (p.control[i] >= H.point_count())
             throw std::invalid_argument("inverse filter: control point not in the transfer matrix");
-        points.push_back(q);
-        weights.push_back(1.0);
+        points.push_back(p.control[i]);
+        weights.push_back(p.control_weights.empty() ? 1.0 : p.control_weights[i]);
     }
     const auto R = summed_correlations(H, points, weights, J);
     Eigen::MatrixXd G(n, n);
@@ -213,6 +217,42 @@ std::vector<double> focus_target(const CalibrationInput &in, double rate_hz, dou
     return d;
 }
 
+InverseFilterDesign minimax_design(const TransferMatrix &H, InverseFilterProblem p, const InverseFilterOptions &o)
+{
+    if (o.minimax_iterations <= 0 || p.control.empty())
+        return design_inverse_filter(H, p, o);
+    std::vector<std::size_t> served = p.control;
+    served.push_back(p.focus);
+    const std::size_t Q = p.control.size();
+    Playback pb(H, served, p.drive_samples, p.drive_samples + H.samples - 1);
+    p.control_weights.assign(Q, 1.0);
+    InverseFilterDesign best;
+    double best_ratio = -1;
+    for (int it = 0; it <= o.minimax_iterations; it++) {
+        InverseFilterDesign d = design_inverse_filter(H, p, o);
+        const auto w = pb.field(d.drive);
+        std::vector<double> m(Q);
+        double worst = 0;
+        for (std::size_t q = 0; q < Q; q++) {
+            m[q] = sample_peak(w[q].data(), w[q].size());
+            worst = std::max(worst, m[q]);
+        }
+        const double ratio = sample_peak(w[Q].data(), w[Q].size()) / std::max(worst, 1e-300);
+        if (ratio > best_ratio) {
+            best_ratio = ratio;
+            best = std::move(d);
+        }
+        if (!(worst > 0))
+            break;
+        double sum = 0;
+        for (std::size_t q = 0; q < Q; q++)
+            sum += (p.control_weights[q] *= m[q] / worst);
+        for (double &v : p.control_weights)
+            v *= double(Q) / sum;
+    }
+    return best;
+}
+
 std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H)
 {
     TimeReversalOptions tro;
@@ -232,7 +272,7 @@ std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, con
         p.focus = H.exact_begin() + f;
         p.control = control_points(in, H, f);
         try {
-            InverseFilterDesign d = design_inverse_filter(H, p, o);
+            InverseFilterDesign d = minimax_design(H, p, o);
             tro.dither_seed = in.exciters.seed * 1000003u + f;
             out.push_back(finish_drive_signals(std::move(d.drive), H.rate_hz, delay, tro));
         } catch (const std::exception &e) {

@@ -69,7 +69,7 @@ struct CalibrationSpec {
     std::optional<double> lead_time_s;
     // Inverse filter: Tikhonov weight relative to the largest eigenvalue of the
     // drive's Gram matrix H^T H (pipeline/inverse_filter.h); >= 0.
-    double regularization = 1e-3;
+    double regularization = 1e-4;
 };
 
 }  // namespace calib::pipeline
