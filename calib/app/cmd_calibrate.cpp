@@ -8,6 +8,7 @@
 #include "model/error_model.h"
 #include "model/resources.h"
 #include "pipeline/calibrate.h"
+#include "pipeline/lead_time.h"
 #include "pipeline/plan.h"
 #include "report/calibration_report.h"
 #include "scene/calibration_input.h"
@@ -283,6 +284,12 @@ int run_calibrate(const CalibrateArgs &a)
                                                              report::EffectSupport{true, true})))
             progress.note(line);
     }
+    progress.note(std::string("drive design: ") +
+                  (in.calibration.method == pipeline::DriveMethod::inverse_filter
+                       ? "inverse filter, regularization " + fmt("%g", in.calibration.regularization)
+                       : std::string("time reversal")) +
+                  ", focal peak aimed at " + fmt("%.1f ms", 1e3 * pipeline::target_lead_time_s(in)) +
+                  " after playback starts");
     pipeline::CalibrationResult r = pipeline::calibrate(in, progress.callback());
     pipeline::write_table(a.table, in, r);
     const pipeline::PlacementReport &p = r.placement;
@@ -323,6 +330,11 @@ int run_calibrate(const CalibrateArgs &a)
         ctx.exciters = r.exciters;
         ctx.table_path = a.table;
         ctx.scene_path = a.scene;
+        std::vector<std::vector<int16_t>> stored;
+        for (const pipeline::DriveSignals &d : r.signals)
+            stored.push_back(d.samples);
+        ctx.signals = &stored;
+        ctx.signal_rate_hz = in.calibration.output_rate_hz;
         ctx.total_s = std::chrono::duration<double>(Clock::now() - t0).count();
         ctx.peak_rss_mb = model::peak_rss_mb();
         report::write_metrics_json(a.report, ctx);
@@ -445,6 +457,8 @@ int run_verify(const VerifyArgs &a)
         ctx.table_path = a.table;
         ctx.scene_path = a.scene;
         ctx.mode = mode;
+        ctx.signals = &signals;
+        ctx.signal_rate_hz = t.sample_rate_hz;
         ctx.total_s = std::chrono::duration<double>(Clock::now() - t0).count();
         ctx.peak_rss_mb = model::peak_rss_mb();
         report::write_metrics_json(a.report, ctx);

@@ -2,9 +2,13 @@
 // time and memory (calib/study/accuracy.h, docs/ACCURACY.md).
 // `calibgen study design SWEEP.toml --report DIR`: design choices swept
 // through the whole calibration (calib/study/design.h, docs/design-studies.md).
+// `calibgen study latency SCENE --report DIR`: lead time against focusing for
+// time reversal and the inverse filter (calib/study/latency.h).
 #include "app/commands.h"
+#include "io/format.h"
 #include "study/accuracy.h"
 #include "study/design.h"
+#include "study/latency.h"
 
 #include <cstdio>
 #include <memory>
@@ -21,7 +25,7 @@ struct StudyArgs {
     bool quiet = false, ppw_only = false;
 };
 
-std::vector<double> parse_list(const std::string &s, const char *option)
+std::vector<double> parse_list(const std::string &s, const char *option, double lo = 4, double hi = 200)
 {
     std::vector<double> v;
     std::stringstream ss(s);
@@ -29,11 +33,39 @@ std::vector<double> parse_list(const std::string &s, const char *option)
     while (std::getline(ss, item, ',')) {
         char *end = nullptr;
         const double x = std::strtod(item.c_str(), &end);
-        if (item.empty() || *end != '\0' || !(x >= 4 && x <= 200))
-            throw std::runtime_error(std::string(option) + ": \"" + item + "\" is not a number in [4, 200]");
+        if (item.empty() || *end != '\0' || !(x >= lo && x <= hi))
+            throw std::runtime_error(std::string(option) + ": \"" + item + "\" is not a number in [" +
+                                     io::fmt("%g", lo) + ", " + io::fmt("%g", hi) + "]");
         v.push_back(x);
     }
     return v;
+}
+
+struct LatencyArgs {
+    std::string scene, report, leads_ms, regs;
+    bool quiet = false, no_pairs = false;
+};
+
+int run_study_latency(const LatencyArgs &a)
+{
+    study::LatencyOptions o;
+    if (!a.leads_ms.empty()) {
+        o.lead_times_s = parse_list(a.leads_ms, "--lead-ms", 1, 1000);
+        for (double &x : o.lead_times_s)
+            x *= 1e-3;
+    }
+    if (!a.regs.empty())
+        o.regularizations = parse_list(a.regs, "--regularization", 0, 1e6);
+    o.quiet = a.quiet;
+    o.multitouch = !a.no_pairs;
+    const study::LatencyResult r = study::run_latency_study(a.scene, o, [&](const std::string &line) {
+        if (!a.quiet)
+            std::fprintf(stderr, "%s\n", line.c_str());
+    });
+    const std::string md = study::write_latency_report(r, a.report);
+    std::printf("%s", md.c_str());
+    std::fprintf(stderr, "wrote %s/latency.{csv,svg,png,md} and latency-efficiency.svg\n", a.report.c_str());
+    return 0;
 }
 
 int run_study_accuracy(const StudyArgs &a)
@@ -90,6 +122,19 @@ void register_study(CLI::App &app, int &exit_code)
         ->check(CLI::Range(1, 1024));
     design->add_flag("-q,--quiet", d->quiet, "No progress on stderr, no summary on stdout");
     design->callback([d, &exit_code] { exit_code = study::run_design_study(*d); });
+
+    auto l = std::make_shared<LatencyArgs>();
+    CLI::App *latency = study->add_subcommand(
+        "latency", "Sweep the lead time (playback start to focal peak) for time reversal and the inverse filter on one "
+                   "placement and transfer matrix: whole-area contrast, peak per drive energy, margin under the "
+                   "threshold; CSV, plots and a markdown table");
+    latency->add_option("scene", l->scene, "Calibration scene (TOML)")->required();
+    latency->add_option("--report", l->report, "Directory for latency.csv, .svg, .png, .md")->required();
+    latency->add_option("--lead-ms", l->leads_ms, "Lead times to sweep in ms (default 10,15,20,25,30,40,50,60,70,80)");
+    latency->add_option("--regularization", l->regs, "Inverse-filter regularizations to sweep (default: the scene's)");
+    latency->add_flag("--no-pairs", l->no_pairs, "Skip the two-finger verification of every pair of foci");
+    latency->add_flag("-q,--quiet", l->quiet, "No progress on stderr");
+    latency->callback([l, &exit_code] { exit_code = run_study_latency(*l); });
 }
 
 }  // namespace calib::app

@@ -1,6 +1,7 @@
 #include "model/cost_model.h"
 
 #include "model/resources.h"
+#include "pipeline/lead_time.h"
 #include "pipeline/site_recording.h"
 #include "pipeline/time_reversal.h"
 
@@ -126,7 +127,7 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
                    std::ceil(emitters / P);
     // Each verification pass runs every focus for the drive; a pass with
     // snapshots re-runs each focus to its focus instant (at most the kept window).
-    const double kept_steps = in.calibration.truncate_fraction * in.calibration.window_s / plan.time_step_s;
+    const double kept_steps = pipeline::kept_window_s(in) / plan.time_step_s;
     double verify_steps = 0;
     for (const pipeline::VerificationPass &pass : plan.verification)
         verify_steps += double(plan.drive_steps) + (pass.snapshots ? kept_steps : 0);
@@ -157,7 +158,7 @@ Prediction predict_verification(const pipeline::CalibrationInput &in, const pipe
     p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;
     if (!cost)
         return p;
-    const double kept_steps = in.calibration.truncate_fraction * in.calibration.window_s / plan.time_step_s;
+    const double kept_steps = pipeline::kept_window_s(in) / plan.time_step_s;
     p.verify_s = plan.transfer ? cost->seconds_per_step_verify * double(plan.transfer_steps) *
                                      std::ceil(in.exciters.count / P)
                                : cost->seconds_per_step_verify * (double(plan.drive_steps) + kept_steps) * std::ceil(K / P);

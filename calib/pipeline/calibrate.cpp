@@ -2,6 +2,8 @@
 
 #include "pipeline/calibrate_stages.h"
 #include "pipeline/first_failure.h"
+#include "pipeline/inverse_filter.h"
+#include "pipeline/lead_time.h"
 #include "pipeline/plan.h"
 #include "pipeline/verification.h"
 
@@ -121,6 +123,7 @@ void check_feasible(const CalibrationInput &in)
     if (in.calibration.window_s * in.calibration.truncate_fraction < pulse_duration_s(in.pulse))
         throw std::invalid_argument("calibration.truncate_fraction: the kept part of the window is shorter than the pulse");
     const Band band = band_of(in);
+    check_lead_time(in, in.exciters.placement == PlacementMode::fixed ? in.exciters.positions : plan(in).sites);
     if (in.exciters.placement == PlacementMode::fixed) {
         if (in.exciters.positions.size() != in.exciters.count)
             throw std::invalid_argument("exciters.positions: " + std::to_string(in.exciters.positions.size()) +
@@ -169,13 +172,22 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
                     H.rate_hz,  H.lattice.spacing_m, H.bytes()};
     res.times.transfer_s = seconds_since(t0);
 
-    // 4. Time-reversal signals from H.
-    t0 = Clock::now();
+    // 4-5. Drive signals from H, their level and the verification.
+    signals_and_verification(in, H, progress, res);
+    return res;
+}
+
+void signals_and_verification(const CalibrationInput &in, const TransferMatrix &H, const ProgressFn &progress,
+                              CalibrationResult &res)
+{
+    // 4. Drive signals from H: time reversal or the inverse filter.
+    auto t0 = Clock::now();
     TimeReversalOptions tro;
     tro.truncate_fraction = in.calibration.truncate_fraction;
     tro.output_rate_hz = in.calibration.output_rate_hz;
     tro.dither = in.calibration.dither;
-    res.signals = signals_from_transfer(in, H);
+    res.signals = in.calibration.method == DriveMethod::inverse_filter ? inverse_filter_signals(in, H)
+                                                                      : signals_from_transfer(in, H);
     if (in.effects.exciter && in.effects.exciter->precompensate)
         for (size_t f = 0; f < res.signals.size(); f++) {
             tro.dither_seed = in.exciters.seed * 1000003u + f;
@@ -213,7 +225,6 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
                            : verify_signals_forward(in, res.exciters, quantized(), in.calibration.output_rate_hz,
                                                     progress, true);
     res.times.verification_s = seconds_since(t0);
-    return res;
 }
 
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H)
@@ -226,9 +237,11 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
     // The recording window at H's rate; only its kept part is non-zero in use,
     // and H covers it (transfer_options: the kept window and the tail).
     const auto n = static_cast<size_t>(std::llround(in.calibration.window_s * H.rate_hz));
-    const auto keep = static_cast<size_t>(std::llround(in.calibration.truncate_fraction * double(n)));
+    const auto keep = static_cast<size_t>(std::llround(kept_fraction(in) * double(n)));
     if (keep > H.samples)
         throw std::logic_error("transfer matrix shorter than the kept window");
+    if (in.calibration.lead_time_s)  // the kept window the lead time asks for (lead_time.h)
+        tro.truncate_fraction = double(keep) / double(n);
     // One focus per thread; each focus's dither seed is its own, so the
     // signals do not depend on the thread count.
     std::vector<DriveSignals> out(in.foci.points.size());

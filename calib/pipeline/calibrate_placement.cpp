@@ -3,6 +3,7 @@
 // placement subset, or a probe point, recorded at every candidate exciter
 // site at once) and the placement search over them.
 #include "pipeline/calibrate_stages.h"
+#include "pipeline/lead_time.h"
 
 #include "pipeline/plan.h"
 #include "pipeline/site_recording.h"
@@ -117,7 +118,7 @@ void place_exciters(const CalibrationInput &in, const CalibrationPlan &plan, con
     // 2. Placement.
     t0 = Clock::now();
     const size_t n = responses[0][0].size();
-    const auto keep = static_cast<size_t>(std::llround(in.calibration.truncate_fraction * static_cast<double>(n)));
+    const auto keep = static_cast<size_t>(std::llround(kept_fraction(in) * static_cast<double>(n)));
     auto points_of = [&](const std::vector<size_t> &idx) {
         std::vector<Point> v;
         for (size_t i : idx)

@@ -15,6 +15,13 @@ namespace calib::pipeline {
 void place_exciters(const CalibrationInput &in, const CalibrationPlan &plan, const ProgressFn &progress,
                     CalibrationResult &res);
 
+// Stages 4-5 on H: the drive signals of every focus by the scene's method
+// (time reversal or the inverse filter), each focus's level for the target
+// amplitude, the verification of the stored signals; fills res.signals,
+// res.full_scale_peak_m, res.verification and their times.
+void signals_and_verification(const CalibrationInput &in, const TransferMatrix &H, const ProgressFn &progress,
+                              CalibrationResult &res);
+
 // Stage 4: the time-reversal signals of every focus from H (reciprocity:
 // H's exciter -> focus response is the focus -> exciter recording), the
 // pulse convolved in at H's rate, at full scale.

@@ -2,6 +2,7 @@
 
 #include "pipeline/calibrate.h"
 #include "pipeline/focus_subset.h"
+#include "pipeline/lead_time.h"
 #include "pipeline/site_recording.h"
 #include "pipeline/transfer.h"
 
@@ -114,7 +115,7 @@ CalibrationPlan plan(const CalibrationInput &in)
     p.site_decimation = sro.decimation;
     p.site_steps = p.window_steps + site_recording_delay_steps(p.time_step_s, sro);
     // The drive is the kept part of the window (time_reversal.cpp), then the tail.
-    p.drive_steps = steps_for(in.calibration.truncate_fraction * in.calibration.window_s + in.calibration.verify_tail_s,
+    p.drive_steps = steps_for(kept_window_s(in) + in.calibration.verify_tail_s,
                               p.time_step_s);
     p.transfer = transfer_holds(in);
     if (!p.transfer)

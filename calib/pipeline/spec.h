@@ -52,6 +52,11 @@ struct FociSpec {
     std::optional<double> pitch_m;   // the square grid's pitch (pitch_m = ...)
 };
 
+// [calibration] method: how the drives are designed from the transfer matrix
+// (docs/scene-format.md): time reversal (the seed's, the matched filter) or a
+// regularised least-squares inverse filter (pipeline/inverse_filter.h).
+enum class DriveMethod { time_reversal, inverse_filter };
+
 // [calibration]
 struct CalibrationSpec {
     double window_s = 0.2;            // recording window after the pulse starts at a focus
@@ -62,6 +67,13 @@ struct CalibrationSpec {
     bool dither = true;
     std::optional<double> accuracy;   // target relative phase-velocity error (docs/ACCURACY.md)
     double verify_tail_s = 0.1;       // verification runs this long after the drive ends
+    DriveMethod method = DriveMethod::time_reversal;
+    // Playback start to the focal peak (s); unset: where time reversal puts it
+    // with the kept window truncate_fraction x window_s (pipeline/lead_time.h).
+    std::optional<double> lead_time_s;
+    // Inverse filter: Tikhonov weight relative to the largest eigenvalue of the
+    // drive's Gram matrix H^T H (pipeline/inverse_filter.h); >= 0.
+    double regularization = 1e-4;
 };
 
 }  // namespace calib::pipeline

@@ -40,20 +40,12 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &rec, dou
         throw std::invalid_argument("truncate_fraction must be in (0, 1]");
     const size_t n = rec[0].size();
     const auto keep = std::max<size_t>(1, static_cast<size_t>(std::llround(o.truncate_fraction * n)));
-    const size_t fade = std::min(keep / 4, static_cast<size_t>(std::llround(o.taper_s * sim_rate_hz)));
-
-    DriveSignals d;
-    d.channels = static_cast<unsigned>(rec.size());
-    d.rate_hz = o.output_rate_hz;
-    // Sample i of the output is recording sample keep-1-i: time reverses about (keep-1)/rate.
-    d.focus_delay_s = static_cast<double>(keep - 1) / sim_rate_hz - pulse_duration_s / 2;
-
-    std::vector<std::vector<double>> out(rec.size());
-    double peak = 0;
+    std::vector<std::vector<double>> drive(rec.size());
     for (size_t c = 0; c < rec.size(); c++) {
         if (rec[c].size() != n)
             throw std::invalid_argument("recordings differ in length");
-        std::vector<double> s(keep);
+        std::vector<double> &s = drive[c];
+        s.resize(keep);
         for (size_t i = 0; i < keep; i++) {
             const double v = rec[c][keep - 1 - i];  // reversed
             if (!std::isfinite(v))
@@ -61,6 +53,32 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &rec, dou
                                             std::to_string(keep - 1 - i));
             s[i] = v;
         }
+    }
+    // Sample i of the output is recording sample keep-1-i: time reverses about (keep-1)/rate.
+    return finish_drive_signals(std::move(drive), sim_rate_hz, static_cast<double>(keep - 1) / sim_rate_hz - pulse_duration_s / 2,
+                                o);
+}
+
+DriveSignals finish_drive_signals(std::vector<std::vector<double>> drive, double sim_rate_hz, double focus_delay_s,
+                                  const TimeReversalOptions &o)
+{
+    if (drive.empty() || drive[0].empty())
+        throw std::invalid_argument("no drive samples");
+    const size_t keep = drive[0].size();
+    const size_t fade = std::min(keep / 4, static_cast<size_t>(std::llround(o.taper_s * sim_rate_hz)));
+    DriveSignals d;
+    d.channels = static_cast<unsigned>(drive.size());
+    d.rate_hz = o.output_rate_hz;
+    d.focus_delay_s = focus_delay_s;
+    std::vector<std::vector<double>> out(drive.size());
+    double peak = 0;
+    for (size_t c = 0; c < drive.size(); c++) {
+        std::vector<double> &s = drive[c];
+        if (s.size() != keep)
+            throw std::invalid_argument("drive channels differ in length");
+        for (double v : s)
+            if (!std::isfinite(v))
+                throw std::invalid_argument("drive of channel " + std::to_string(c) + " is not finite");
         // Raised-cosine fades: the reversed signal starts where the kept window
         // was cut mid-wave; without a fade that step is an audible click.
         for (size_t i = 0; i < fade; i++) {

@@ -38,6 +38,13 @@ struct DriveSignals {
 DriveSignals make_drive_signals(const std::vector<std::vector<double>> &recordings, double sim_rate_hz,
                                 double pulse_duration_s, const TimeReversalOptions &options);
 
+// The steps after the design of a drive (either method): drive[c][n] at
+// sim_rate_hz in playback order; raised-cosine fades of taper_s at both ends
+// (no click), resampled to the device rate, normalized to full scale and
+// quantized. focus_delay_s is stored as given.
+DriveSignals finish_drive_signals(std::vector<std::vector<double>> drive, double sim_rate_hz, double focus_delay_s,
+                                  const TimeReversalOptions &options);
+
 // Re-quantize at `level` x full scale (0 < level <= 1): the signals keep their
 // shape, their peak becomes level * 32767 counts (seeded TPDF dither as above).
 void requantize(DriveSignals &d, double level, const TimeReversalOptions &options);

@@ -1,6 +1,7 @@
 #include "pipeline/transfer.h"
 
 #include "pipeline/calibrate.h"
+#include "pipeline/lead_time.h"
 #include "pipeline/plan.h"
 
 #include <algorithm>
@@ -64,7 +65,7 @@ TransferOptions transfer_options(const CalibrationInput &in, double k)
     const double rate = 1.0 / (double(o.decimation) * k);
     // The kept window (the time-reversal recording) and the verification tail
     // after a drive as long as it: every playback output the verification reads.
-    const double kept_s = in.calibration.truncate_fraction * in.calibration.window_s;
+    const double kept_s = kept_window_s(in);
     o.samples = static_cast<std::size_t>(std::ceil((kept_s + in.calibration.verify_tail_s) * rate)) + 1;
     const double lambda_min = a0_wavelength_m(*in.plate, f_max);
     o.lattice_stride = std::max(1, static_cast<int>(std::floor(lambda_min / 4 / in.plate->grid().h)));

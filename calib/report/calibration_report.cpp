@@ -3,6 +3,7 @@
 #include "io/atomic_file.h"
 #include "physics/dispersion.h"
 #include "pipeline/verification.h"
+#include "report/drive_report.h"
 #include "report/field_image.h"
 #include "report/modes_section.h"
 #include "report/report_fields.h"
@@ -103,6 +104,7 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
             root.insert("all_whole_area_below_threshold", all_whole_below);
         }
     }
+    add_drive_metrics(root, *root["foci"].as_array(), c);
     if (c.result) {
         const pipeline::PlacementReport &p = c.result->placement;
         root.insert("placement",
@@ -377,7 +379,7 @@ void write_html_report(const std::string &dir, const ReportContext &c)
             h << "<td>" << num(m.peak_time_s * 1e3) << "</td>" << yes(m.crosses_threshold);
         h << "</tr>";
     }
-    h << "</table>";
+    h << "</table>" << drive_design_html(c);
     if (c.mode == "table") {
         h << field_sections_html(c, shown);
     }

@@ -19,6 +19,10 @@ struct ReportContext {
     std::string scene_path;
     std::string mode = "table";  // "table" or "drive" (verify --drive)
     const engine::PlateModes *modes = nullptr;  // `calibrate --modes N`: the plate's lowest modes
+    // The stored signals per focus ([n][c] int16) and their rate: the drive
+    // figures (report/drive_report.h); null: none reported.
+    const std::vector<std::vector<int16_t>> *signals = nullptr;
+    double signal_rate_hz = 0;
     double peak_rss_mb = 0;
     double total_s = 0;
 };

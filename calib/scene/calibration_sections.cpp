@@ -256,6 +256,12 @@ pipeline::CalibrationSpec parse_calibration(const Fields &f)
         c.accuracy = *v;
     }
     c.verify_tail_s = non_negative(f, "verify_tail_s", c.verify_tail_s);
+    c.method = one_of<pipeline::DriveMethod>(f, "method", c.method,
+                                             {{"time_reversal", pipeline::DriveMethod::time_reversal},
+                                              {"inverse_filter", pipeline::DriveMethod::inverse_filter}});
+    if (auto v = f.positive("lead_time_s"))
+        c.lead_time_s = *v;
+    c.regularization = non_negative(f, "regularization", c.regularization);
     return c;
 }
 

@@ -184,7 +184,8 @@ void parse_calibration_section(const toml::table &t, Scene &scene)
 {
     scene.calibration = parse_calibration(Fields(t, scene.file, "calibration",
                                                  {"window_s", "truncate_fraction", "output_rate_hz", "sample_format",
-                                                  "threshold_m", "dither", "accuracy", "verify_tail_s"}));
+                                                  "threshold_m", "dither", "accuracy", "verify_tail_s", "method",
+                                                  "lead_time_s", "regularization"}));
 }
 
 void parse_effects_section(const toml::table &t, Scene &scene)

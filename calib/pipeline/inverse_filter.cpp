@@ -1,0 +1,285 @@
+#include "pipeline/inverse_filter.h"
+
+#include "pipeline/calibrate.h"
+#include "pipeline/lead_time.h"
+#include "pipeline/peaks.h"
+#include "pipeline/playback.h"
+#include "pipeline/pulse.h"
+
+#include <Eigen/Dense>
+#include <Spectra/MatOp/DenseSymMatProd.h>
+#include <Spectra/SymEigsSolver.h>
+#include <unsupported/Eigen/FFT>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace calib::pipeline {
+
+namespace {
+
+using Complex = std::complex<double>;
+
+std::size_t next_pow2(std::size_t n)
+{
+    std::size_t m = 1;
+    while (m < n)
+        m *= 2;
+    return m;
+}
+
+// Largest eigenvalue of a symmetric positive semi-definite matrix (Lanczos).
+double largest_eigenvalue(const Eigen::MatrixXd &G)
+{
+    const Eigen::Index n = G.rows();
+    if (n <= 8) {
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(G, Eigen::EigenvaluesOnly);
+        return es.eigenvalues().maxCoeff();
+    }
+    Spectra::DenseSymMatProd<double> op(G);
+    Spectra::SymEigsSolver<Spectra::DenseSymMatProd<double>> eigs(op, 1, std::min<Eigen::Index>(n, 20));
+    eigs.init();
+    eigs.compute(Spectra::SortRule::LargestAlge, 1000, 1e-8);
+    if (eigs.info() != Spectra::CompInfo::Successful)
+        throw std::runtime_error("inverse filter: the largest eigenvalue of H^T H did not converge");
+    return eigs.eigenvalues()[0];
+}
+
+// Cross-correlations summed over points with weights:
+//   R[c][c'][l + J - 1] = sum_p w_p sum_m h_cp[m] h_c'p[m + l],  |l| < J,
+// from the cross-spectra of the zero-padded responses (N >= S + J - 1: no
+// wrap-around within the lags kept).
+std::vector<std::vector<std::vector<double>>> summed_correlations(const TransferMatrix &H,
+                                                                  const std::vector<std::size_t> &points,
+                                                                  const std::vector<double> &weights, std::size_t J)
+{
+    const std::size_t C = H.channels, S = H.samples, N = next_pow2(S + J - 1);
+    const std::size_t pairs = C * (C + 1) / 2;
+    std::vector<Complex> total(pairs * N, Complex{});
+#pragma omp parallel
+    {
+        Eigen::FFT<double> fft;
+        std::vector<double> buf(N);
+        std::vector<std::vector<Complex>> X(C);
+        std::vector<Complex> acc(pairs * N, Complex{});
+#pragma omp for schedule(dynamic, 8)
+        for (std::size_t i = 0; i < points.size(); i++) {
+            for (std::size_t c = 0; c < C; c++) {
+                const float *h = H.response(c, points[i]);
+                std::fill(buf.begin(), buf.end(), 0.0);
+                std::copy(h, h + S, buf.begin());
+                fft.fwd(X[c], buf);
+            }
+            std::size_t k = 0;
+            for (std::size_t c = 0; c < C; c++)
+                for (std::size_t d = c; d < C; d++, k++)
+                    for (std::size_t b = 0; b < N; b++)
+                        acc[k * N + b] += weights[i] * std::conj(X[c][b]) * X[d][b];
+        }
+#pragma omp critical
+        for (std::size_t b = 0; b < acc.size(); b++)
+            total[b] += acc[b];
+    }
+    std::vector<std::vector<std::vector<double>>> R(C, std::vector<std::vector<double>>(C));
+    Eigen::FFT<double> fft;
+    std::vector<double> out(N);
+    std::vector<Complex> spec(N);
+    std::size_t k = 0;
+    for (std::size_t c = 0; c < C; c++)
+        for (std::size_t d = c; d < C; d++, k++) {
+            std::copy(total.begin() + long(k * N), total.begin() + long((k + 1) * N), spec.begin());
+            fft.inv(out, spec);
+            std::vector<double> &r = R[c][d];
+            r.resize(2 * J - 1);
+            for (std::size_t l = 0; l < 2 * J - 1; l++) {
+                const long lag = long(l) - long(J - 1);
+                r[l] = out[std::size_t((lag + long(N)) % long(N))];
+            }
+        }
+    return R;
+}
+
+}  // namespace
+
+InverseFilterDesign design_inverse_filter(const TransferMatrix &H, const InverseFilterProblem &p,
+                                          const InverseFilterOptions &o)
+{
+    const std::size_t C = H.channels, S = H.samples, J = p.drive_samples;
+    if (C == 0 || S == 0 || J == 0 || p.target.empty())
+        throw std::invalid_argument("inverse filter: empty problem (no exciters, samples, drive or target)");
+    if (p.focus >= H.point_count())
+        throw std::invalid_argument("inverse filter: focus point not in the transfer matrix");
+    if (!(o.regularization >= 0) || !(o.focus_weight > 0))
+        throw std::invalid_argument("inverse filter: regularization must be >= 0 and the focus weight > 0");
+    const std::size_t n = C * J;
+
+    // The data part of the normal matrix: the focus and the control points.
+    std::vector<std::size_t> points{p.focus};
+    std::vector<double> weights{o.focus_weight};
+    if (!p.control_weights.empty() && p.control_weights.size() != p.control.size())
+        throw std::invalid_argument("inverse filter: one weight per control point");
+    for (std::size_t i = 0; i < p.control.size(); i++) {
+        if (p.control[i] >= H.point_count())
+            throw std::invalid_argument("inverse filter: control point not in the transfer matrix");
+        points.push_back(p.control[i]);
+        weights.push_back(p.control_weights.empty() ? 1.0 : p.control_weights[i]);
+    }
+    const auto R = summed_correlations(H, points, weights, J);
+    Eigen::MatrixXd G(n, n);
+    for (std::size_t c = 0; c < C; c++)
+        for (std::size_t d = c; d < C; d++)
+            for (std::size_t j = 0; j < J; j++)
+                for (std::size_t jj = 0; jj < J; jj++) {
+                    // G[(c,j),(d,jj)] = sum_m h_c[m] h_d[m + j - jj]
+                    const double v = R[c][d][j + J - 1 - jj];
+                    G(Eigen::Index(c * J + j), Eigen::Index(d * J + jj)) = v;
+                    G(Eigen::Index(d * J + jj), Eigen::Index(c * J + j)) = v;
+                }
+
+    // Right-hand side: W_f A_f^T d, b[(c,j)] = W_f sum_m h_cf[m] d[m + j].
+    Eigen::VectorXd b(n);
+    for (std::size_t c = 0; c < C; c++) {
+        const float *h = H.response(c, p.focus);
+        for (std::size_t j = 0; j < J; j++) {
+            double acc = 0;
+            for (std::size_t m = 0; m < S && m + j < p.target.size(); m++)
+                acc += double(h[m]) * p.target[m + j];
+            b(Eigen::Index(c * J + j)) = o.focus_weight * acc;
+        }
+    }
+
+    InverseFilterDesign out;
+    out.lambda_max = largest_eigenvalue(G);
+    out.beta = o.regularization * out.lambda_max;
+    Eigen::VectorXd x;
+    if (out.beta > 0) {
+        // beta (I + rho P_out) per channel, P_out[l] = delta_l - 2 nu sinc(2 nu l):
+        // the drive's energy above nu = band_edge / R cycles per sample.
+        const double nu = o.band_edge_hz > 0 ? std::min(0.5, o.band_edge_hz / H.rate_hz) : 0.5;
+        const double rho = o.band_edge_hz > 0 ? o.out_of_band_weight : 0.0;
+        for (std::size_t j = 0; j < J; j++)
+            for (std::size_t jj = 0; jj < J; jj++) {
+                const double l = double(j) - double(jj);
+                const double x2 = 2 * nu * l;
+                const double sinc = l == 0 ? 1.0 : std::sin(std::numbers::pi * x2) / (std::numbers::pi * x2);
+                const double pen = out.beta * ((j == jj ? 1.0 : 0.0) + rho * ((j == jj ? 1.0 : 0.0) - 2 * nu * sinc));
+                for (std::size_t c = 0; c < C; c++)
+                    G(Eigen::Index(c * J + j), Eigen::Index(c * J + jj)) += pen;
+            }
+        Eigen::LLT<Eigen::MatrixXd> llt(G);
+        if (llt.info() == Eigen::Success)
+            x = llt.solve(b);
+        else
+            x = G.ldlt().solve(b);
+    } else {
+        // Unregularised: the minimum-norm least-squares solution.
+        x = G.completeOrthogonalDecomposition().solve(b);
+    }
+    if (!x.allFinite())
+        throw std::runtime_error("inverse filter: the solve gave non-finite drives");
+    out.drive.assign(C, std::vector<double>(J));
+    for (std::size_t c = 0; c < C; c++)
+        for (std::size_t j = 0; j < J; j++)
+            out.drive[c][j] = x(Eigen::Index(c * J + j)) * H.rate_hz;  // w = (1/R) h * s
+    return out;
+}
+
+std::vector<std::size_t> control_points(const CalibrationInput &in, const TransferMatrix &H, std::size_t f)
+{
+    const Point at = in.foci.points[f].at;
+    const double lambda_half = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+    const Rect &a = in.active.area;
+    auto far = [&](Point p) { return std::hypot(p.x_m - at.x_m, p.y_m - at.y_m) > lambda_half; };
+    std::vector<std::size_t> q;
+    for (std::size_t n = 0; n < H.lattice.size(); n++) {
+        const Point p = H.lattice.at(n);
+        if (p.x_m >= a.x0_m && p.x_m <= a.x1_m && p.y_m >= a.y0_m && p.y_m <= a.y1_m && far(p))
+            q.push_back(n);
+    }
+    for (std::size_t g = 0; g < in.foci.points.size(); g++)
+        if (g != f && H.exact_begin() + g < H.point_count() && far(in.foci.points[g].at))
+            q.push_back(H.exact_begin() + g);
+    return q;
+}
+
+std::vector<double> focus_target(const CalibrationInput &in, double rate_hz, double centre_s)
+{
+    const std::vector<double> pulse = sample_pulse(in.pulse, rate_hz);
+    const long start = std::lround((centre_s - pulse_duration_s(in.pulse) / 2) * rate_hz);
+    std::vector<double> d(std::size_t(std::max(0L, start)) + pulse.size(), 0.0);
+    for (std::size_t i = 0; i < pulse.size(); i++)
+        if (start + long(i) >= 0)
+            d[std::size_t(start + long(i))] = pulse[i];
+    return d;
+}
+
+InverseFilterDesign minimax_design(const TransferMatrix &H, InverseFilterProblem p, const InverseFilterOptions &o)
+{
+    if (o.minimax_iterations <= 0 || p.control.empty())
+        return design_inverse_filter(H, p, o);
+    std::vector<std::size_t> served = p.control;
+    served.push_back(p.focus);
+    const std::size_t Q = p.control.size();
+    Playback pb(H, served, p.drive_samples, p.drive_samples + H.samples - 1);
+    p.control_weights.assign(Q, 1.0);
+    InverseFilterDesign best;
+    double best_ratio = -1;
+    for (int it = 0; it <= o.minimax_iterations; it++) {
+        InverseFilterDesign d = design_inverse_filter(H, p, o);
+        const auto w = pb.field(d.drive);
+        std::vector<double> m(Q);
+        double worst = 0;
+        for (std::size_t q = 0; q < Q; q++) {
+            m[q] = sample_peak(w[q].data(), w[q].size());
+            worst = std::max(worst, m[q]);
+        }
+        const double ratio = sample_peak(w[Q].data(), w[Q].size()) / std::max(worst, 1e-300);
+        if (ratio > best_ratio) {
+            best_ratio = ratio;
+            best = std::move(d);
+        }
+        if (!(worst > 0))
+            break;
+        double sum = 0;
+        for (std::size_t q = 0; q < Q; q++)
+            sum += (p.control_weights[q] *= m[q] / worst);
+        for (double &v : p.control_weights)
+            v *= double(Q) / sum;
+    }
+    return best;
+}
+
+std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H)
+{
+    TimeReversalOptions tro;
+    tro.output_rate_hz = in.calibration.output_rate_hz;
+    tro.dither = in.calibration.dither;
+    InverseFilterOptions o;
+    o.regularization = in.calibration.regularization;
+    o.band_edge_hz = pulse_max_frequency_hz(in.pulse);
+    const double lead = target_lead_time_s(in), centre = focus_centre_s(in);
+    InverseFilterProblem p;
+    p.drive_samples = static_cast<std::size_t>(std::floor(lead * H.rate_hz + 1e-9)) + 1;
+    p.target = focus_target(in, H.rate_hz, centre);
+    const double delay = double(std::lround((centre - pulse_duration_s(in.pulse) / 2) * H.rate_hz)) / H.rate_hz +
+                         pulse_duration_s(in.pulse) / 2;
+    std::vector<DriveSignals> out;
+    for (std::size_t f = 0; f < in.foci.points.size(); f++) {
+        p.focus = H.exact_begin() + f;
+        p.control = control_points(in, H, f);
+        try {
+            InverseFilterDesign d = minimax_design(H, p, o);
+            tro.dither_seed = in.exciters.seed * 1000003u + f;
+            out.push_back(finish_drive_signals(std::move(d.drive), H.rate_hz, delay, tro));
+        } catch (const std::exception &e) {
+            throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
+        }
+    }
+    return out;
+}
+
+}  // namespace calib::pipeline

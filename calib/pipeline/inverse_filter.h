@@ -1,0 +1,110 @@
+// The inverse filter: drives designed from the transfer matrix H for what the
+// whole active area should do, not only the focus (Woo, JSV 2015; Pantera &
+// Hudin, IEEE ToH 2020). Time domain, regularised least squares:
+//
+//   minimise  W_f sum_n (w_f[n] - d[n])^2 + sum_{q in Q} sum_n w_q[n]^2
+//             + beta sum_c s_c^T (I + rho P_out) s_c
+//
+// over causal drives s_c[j], j < J (J: the lead time at H's rate, so the
+// drive is no longer than the lead time), where w_p = (1/R) sum_c h_cp * s_c
+// is the playback (playback.h), d the pulse centred at the focus instant, Q
+// the control points (the observation lattice in the active area and the
+// other foci, farther than lambda/2 from the focus), and n runs over the
+// whole support of the playback (J + S - 1 samples): zero at all times, as
+// the whole-area verification measures it.
+//
+// Why the time domain: "causal and at most the lead time long" is a support
+// constraint, exact here; a per-frequency solve gives a non-causal, circular
+// drive that must be windowed afterwards, which undoes part of what it solved.
+// Over the whole support the normal matrix is block Toeplitz,
+//   G[(c,j),(c',j')] = sum_p w_p sum_m h_cp[m] h_c'p[m + j - j'],
+// so it is formed from cross-spectra accumulated point by point (FFT), and the
+// system is C J unknowns however many control points there are: every lattice
+// point of the active area serves, none is subsampled away.
+//
+// Regularisation rule: beta = epsilon * lambda_max(G), epsilon the scene's
+// `regularization` (default 1e-4: on Fig. 7 with the minimax refinement below,
+// 8.3 dB worst whole-area contrast against 8.1 dB at 1e-3 and 6.6 dB at 1e-2;
+// docs/REPRODUCTION.md). Relative to the largest eigenvalue, the
+// rule is independent of units, plate and exciter count, and it bounds the
+// condition number of the regularised system by about 1 / epsilon (plus the
+// out-of-band weight below): with the default, directions the plate
+// transmits more than 40 dB (in power) below its best are not inverted. epsilon -> 0 is the least-squares inverse (exact where the
+// system is solvable, Miyoshi & Kaneda's MINT: fewer points than exciters and
+// J >= Q (S - 1) / (C - Q)); epsilon -> infinity is s -> W_f A_f^T d / beta,
+// the matched filter, i.e. time reversal up to scale.
+//
+// Audible energy: the target is band-limited to the pulse; above the pulse's
+// band (its -40 dB edge) the drive's energy costs rho = 100 times more in the
+// penalty (P_out is the exact quadratic form of the drive's energy above the
+// edge, a Toeplitz matrix of the ideal high-pass). The penalty scales with
+// beta, so both limits above hold unchanged.
+//
+// Least squares weighs every control point and instant alike; the verdict is
+// the worst point (a sidelobe ring just beyond lambda/2 at the focal instant,
+// on Fig. 7). Lawson's iteratively reweighted least squares moves the design
+// towards the minimax one: each control point's weight grows with its largest
+// |w| relative to the worst (InverseFilterOptions::minimax_iterations). The device signal is the drive
+// resampled to the output rate (no content above H's Nyquist rate) with the
+// same raised-cosine fades as time reversal (time_reversal.h).
+#pragma once
+#include "pipeline/time_reversal.h"
+#include "pipeline/transfer.h"
+
+#include <cstddef>
+#include <vector>
+
+namespace calib::pipeline {
+
+struct CalibrationInput;
+
+struct InverseFilterOptions {
+    double regularization = 1e-4;    // epsilon: beta = epsilon lambda_max(G); 0 = unregularised
+    double focus_weight = 1.0;       // W_f: the focus's rows against one control point's
+    double band_edge_hz = 0;         // out-of-band penalty above this; <= 0: none
+    double out_of_band_weight = 100; // rho
+    // Minimax refinement (Lawson's iteratively reweighted least squares): after
+    // each design, every control point's weight is multiplied by its largest
+    // |w| over time relative to the worst point's, and the design repeated;
+    // the design with the best focal peak over the worst control point wins.
+    // 0: plain least squares.
+    int minimax_iterations = 8;
+};
+
+struct InverseFilterProblem {
+    std::size_t focus = 0;               // index into H.points
+    std::vector<std::size_t> control;    // indices into H.points, target zero
+    std::vector<double> control_weights; // per control point (empty: 1 each)
+    std::vector<double> target;          // d[n] at the focus from playback start, H's rate (zero after)
+    std::size_t drive_samples = 0;       // J
+};
+
+struct InverseFilterDesign {
+    std::vector<std::vector<double>> drive;  // [c][j], force (N) at H's rate, j < J
+    double lambda_max = 0;                   // of the data part of G
+    double beta = 0;
+};
+
+// Throws std::invalid_argument for an empty problem, std::runtime_error when
+// the solve fails.
+InverseFilterDesign design_inverse_filter(const TransferMatrix &H, const InverseFilterProblem &problem,
+                                          const InverseFilterOptions &options);
+
+// design_inverse_filter with the options' minimax refinement (the problem's
+// control weights are where it starts from: ignored, all 1).
+InverseFilterDesign minimax_design(const TransferMatrix &H, InverseFilterProblem problem,
+                                   const InverseFilterOptions &options);
+
+// The control points of focus f (index into the scene's foci): lattice points
+// in the active area and the other foci, farther than lambda/2 at the pulse
+// centre from it.
+std::vector<std::size_t> control_points(const CalibrationInput &in, const TransferMatrix &H, std::size_t f);
+
+// The pulse centred at `centre_s` from playback start, at H's rate.
+std::vector<double> focus_target(const CalibrationInput &in, double rate_hz, double centre_s);
+
+// Per focus, the inverse-filter drives at full scale for the scene's lead
+// time (lead_time.h) and regularization.
+std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H);
+
+}  // namespace calib::pipeline

@@ -1,0 +1,154 @@
+#include "pipeline/multitouch.h"
+
+#include "pipeline/calibrate.h"
+#include "pipeline/peaks.h"
+#include "pipeline/playback.h"
+#include "pipeline/verification.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace calib::pipeline {
+
+namespace {
+
+constexpr std::size_t peak_block = 64;  // firmware/src/program.h HD_PEAK_BLOCK
+
+double distance(Point a, Point b) { return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m); }
+
+}  // namespace
+
+double mixer_gain(const std::vector<const std::vector<int16_t> *> &s, unsigned C)
+{
+    const std::size_t K = s.size();
+    std::size_t n = 0;
+    for (const auto *x : s)
+        n = std::max(n, x->size());
+    // Gram entries over the common length (shorter signals end in silence).
+    double e_ref = 0, e_sum = 0;
+    for (std::size_t i = 0; i < K; i++)
+        for (std::size_t j = 0; j < K; j++) {
+            const std::size_t m = std::min(s[i]->size(), s[j]->size());
+            double g = 0;
+            for (std::size_t k = 0; k < m; k++)
+                g += double((*s[i])[k]) * double((*s[j])[k]);
+            e_sum += g;
+            if (i == j)
+                e_ref += g;
+        }
+    e_ref /= double(K);
+    const double g_energy = e_sum > 0 ? std::sqrt(e_ref / e_sum) : 0.0;
+    double bound = 0;
+    const std::size_t frames = n / C;
+    for (std::size_t b = 0; b * peak_block < frames; b++)
+        for (unsigned c = 0; c < C; c++) {
+            double sum = 0;
+            for (const auto *x : s) {
+                int peak = 0;
+                for (std::size_t f = b * peak_block; f < std::min(frames, (b + 1) * peak_block); f++)
+                    if (f * C + c < x->size())
+                        peak = std::max(peak, std::abs(int((*x)[f * C + c])));
+                sum += peak;
+            }
+            bound = std::max(bound, sum);
+        }
+    const double g_peak = bound > 0 ? 32767.0 / bound : 1.0;
+    return std::min({g_energy, g_peak, 1.0});
+}
+
+MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMatrix &H,
+                                   const std::vector<std::vector<int16_t>> &signals, double rate_hz, bool triples)
+{
+    const std::size_t K = in.foci.points.size(), C = H.channels, L = H.lattice.size();
+    const double lambda_half = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+    std::vector<std::vector<std::size_t>> sets;
+    auto apart = [&](std::size_t a, std::size_t b) {
+        return distance(in.foci.points[a].at, in.foci.points[b].at) >= lambda_half;
+    };
+    for (std::size_t a = 0; a < K; a++)
+        for (std::size_t b = a + 1; b < K; b++) {
+            if (!apart(a, b))
+                continue;
+            sets.push_back({a, b});
+            for (std::size_t c = b + 1; triples && c < K; c++)
+                if (apart(a, c) && apart(b, c))
+                    sets.push_back({a, b, c});
+        }
+    MultiTouchReport rep;
+    if (sets.empty())
+        return rep;
+    std::size_t frames = 0;
+    for (const auto &s : signals)
+        frames = std::max(frames, s.size() / C);
+    const std::size_t drive = static_cast<std::size_t>(std::ceil(double(frames) * H.rate_hz / rate_hz)) + 1;
+    std::vector<std::size_t> served;
+    for (std::size_t f = 0; f < K; f++)
+        served.push_back(H.exact_begin() + f);
+    const Rect &area = in.active.area;
+    std::vector<std::size_t> lattice;  // active-area lattice points
+    for (std::size_t n = 0; n < L; n++) {
+        const Point p = H.lattice.at(n);
+        if (p.x_m >= area.x0_m && p.x_m <= area.x1_m && p.y_m >= area.y0_m && p.y_m <= area.y1_m) {
+            served.push_back(n);
+            lattice.push_back(n);
+        }
+    }
+    Playback pb(H, served, drive,
+                drive + static_cast<std::size_t>(std::ceil(in.calibration.verify_tail_s * H.rate_hz)));
+    double worst_margin = INFINITY;
+    for (const auto &set : sets) {
+        MultiTouchCase mc;
+        mc.foci = set;
+        std::vector<const std::vector<int16_t> *> s;
+        for (std::size_t f : set)
+            s.push_back(&signals[f]);
+        mc.gain = mixer_gain(s, unsigned(C));
+        std::vector<float> mix(frames * C, 0.0f);
+        for (const auto *x : s)
+            for (std::size_t i = 0; i < x->size(); i++)
+                mix[i] += static_cast<float>(mc.gain * double((*x)[i]) / 32767.0);
+        const auto w = pb.field(drive_forces(in, H, mix, unsigned(C), rate_hz));
+        auto far_from_all = [&](Point p) {
+            for (std::size_t f : set)
+                if (distance(p, in.foci.points[f].at) <= lambda_half)
+                    return false;
+            return true;
+        };
+        mc.min_focus_peak_m = INFINITY;
+        for (std::size_t f : set)
+            mc.min_focus_peak_m = std::min(mc.min_focus_peak_m, refined_peak(w[f]).value);
+        for (std::size_t g = 0; g < K; g++)
+            if (far_from_all(in.foci.points[g].at)) {
+                const double v = refined_peak(w[g]).value;
+                if (v > mc.max_elsewhere_m) {
+                    mc.max_elsewhere_m = v;
+                    mc.elsewhere_at = in.foci.points[g].at;
+                }
+            }
+        for (std::size_t i = 0; i < lattice.size(); i++) {
+            const Point p = H.lattice.at(lattice[i]);
+            if (!far_from_all(p))
+                continue;
+            const std::vector<float> &x = w[K + i];
+            if (sample_peak(x.data(), x.size()) < 0.8 * mc.max_elsewhere_m)
+                continue;
+            const double v = refined_peak(x).value;
+            if (v > mc.max_elsewhere_m) {
+                mc.max_elsewhere_m = v;
+                mc.elsewhere_at = p;
+            }
+        }
+        const double thr = in.calibration.threshold_m;
+        mc.ok = mc.min_focus_peak_m >= thr && mc.max_elsewhere_m < thr;
+        mc.margin_m = std::min(mc.min_focus_peak_m - thr, thr - mc.max_elsewhere_m);
+        rep.failing += !mc.ok;
+        if (mc.margin_m < worst_margin) {
+            worst_margin = mc.margin_m;
+            rep.worst = rep.cases.size();
+        }
+        rep.cases.push_back(mc);
+    }
+    return rep;
+}
+
+}  // namespace calib::pipeline

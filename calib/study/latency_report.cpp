@@ -1,0 +1,124 @@
+// The latency study's files: CSV, plots (report/plot.h), markdown table.
+#include "study/latency.h"
+
+#include "io/atomic_file.h"
+#include "io/format.h"
+#include "report/plot.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+namespace calib::study {
+
+namespace {
+
+using io::fmt;
+
+const char *name(pipeline::DriveMethod m)
+{
+    return m == pipeline::DriveMethod::inverse_filter ? "inverse_filter" : "time_reversal";
+}
+
+// One curve per method (and regularization) over the swept lead times.
+void add_curves(report::Plot &p, const LatencyResult &r, double (*get)(const LatencyRow &))
+{
+    std::vector<std::pair<std::string, report::Series>> curves;
+    for (const LatencyRow &x : r.rows) {
+        if (x.scene_default || !x.error.empty())
+            continue;
+        const bool inv = x.method == pipeline::DriveMethod::inverse_filter;
+        const std::string label = inv ? "inverse filter, eps " + fmt("%g", x.regularization) : "time reversal";
+        auto it = std::find_if(curves.begin(), curves.end(), [&](const auto &c) { return c.first == label; });
+        if (it == curves.end()) {
+            curves.push_back({label, report::Series(label, {}, {})});
+            curves.back().second.markers = true;
+            it = curves.end() - 1;
+        }
+        it->second.x.push_back(x.lead_target_s * 1e3);
+        it->second.y.push_back(get(x));
+    }
+    for (auto &c : curves)
+        p.add(std::move(c.second));
+}
+
+}  // namespace
+
+std::string write_latency_report(const LatencyResult &r, const std::string &dir)
+{
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec)
+        throw std::runtime_error(dir + ": cannot create the report directory: " + ec.message());
+    std::ostringstream csv;
+    csv << "scene,method,regularization,scene_default_lead,lead_time_target_s,lead_time_measured_s,"
+           "worst_whole_area_contrast_db,worst_other_foci_contrast_db,min_peak_m,margin_under_threshold_m,"
+           "all_cross,all_alone,min_peak_per_root_energy,max_drive_energy_n2s,max_out_of_band_fraction,pairs,pairs_failing,"
+           "worst_pair,worst_pair_margin_m,max_sound_exposure_dba,seconds,error\n";
+    for (const LatencyRow &x : r.rows) {
+        std::string err = x.error;
+        std::replace(err.begin(), err.end(), ',', ';');
+        std::replace(err.begin(), err.end(), '"', '\'');
+        csv << r.scene_name << ',' << name(x.method) << ',' << x.regularization << ',' << (x.scene_default ? 1 : 0)
+            << ',' << x.lead_target_s << ',' << x.lead_measured_s << ',' << x.worst_whole_area_db << ','
+            << x.worst_other_foci_db << ',' << x.min_peak_m << ',' << x.margin_m << ',' << (x.all_cross ? 1 : 0) << ','
+            << (x.all_alone ? 1 : 0) << ',' << x.min_peak_per_root_energy << ',' << x.max_energy_n2s << ','
+            << x.max_out_of_band << ',' << x.pairs << ',' << x.pairs_failing << ',' << x.worst_pair[0] << '+'
+            << x.worst_pair[1] << ',' << x.worst_pair_margin_m << ',' << x.max_sound_dba << ',' << x.seconds << ",\"" << err << "\"\n";
+    }
+    io::write_file_atomic(dir + "/latency.csv", csv.str());
+
+    report::Plot p;
+    p.title = r.scene_name + ": worst whole-area contrast against lead time";
+    p.x = {"lead time: playback start to focal peak (ms)"};
+    p.y = {"worst whole-area contrast, all times (dB)"};
+    p.legend = report::LegendPosition::bottom_right;
+    add_curves(p, r, [](const LatencyRow &x) { return x.worst_whole_area_db; });
+    if (!p.series.empty()) {
+        report::write_plot(p, dir + "/latency.svg");
+        report::write_plot(p, dir + "/latency.png");
+    }
+    report::Plot e;
+    e.title = r.scene_name + ": focal peak per root drive energy (worst focus)";
+    e.x = {"lead time: playback start to focal peak (ms)"};
+    e.y = {"peak / sqrt(energy) (um / (N s^0.5))"};
+    add_curves(e, r, [](const LatencyRow &x) { return x.min_peak_per_root_energy * 1e6; });
+    if (!e.series.empty())
+        report::write_plot(e, dir + "/latency-efficiency.svg");
+
+    std::ostringstream md;
+    md << "Scene `" << r.scene_file << "`: " << r.exciters.size() << " exciters (the scene's placement), plate "
+       << "crossing " << fmt("%.1f ms", r.crossing_s * 1e3) << " (farthest exciter to farthest focus at the A0 group "
+       << "velocity), threshold " << fmt("%.1f um", r.threshold_m * 1e6) << ".\n\n"
+       << "| method | lead target (ms) | lead measured (ms) | worst whole-area contrast (dB) | worst over other foci "
+          "(dB) | min peak (um) | margin under threshold (um) | every focus crosses | crosses alone | peak per root "
+          "energy (um/(N s^0.5)) | max drive energy (N^2 s) | max energy above band (%) | pairs failing | worst "
+          "pair: margin (um) | loudest focus L_AE at 0.5 m (dB(A)) |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (const LatencyRow &x : r.rows) {
+        const bool inv = x.method == pipeline::DriveMethod::inverse_filter;
+        md << "| " << (inv ? "inverse filter, eps " + fmt("%g", x.regularization) : std::string("time reversal"))
+           << (x.scene_default ? " (scene window)" : "") << " | " << fmt("%.1f", x.lead_target_s * 1e3) << " | ";
+        if (!x.error.empty()) {
+            md << "failed: " << x.error << " ||||||||||||| \n";
+            continue;
+        }
+        md << fmt("%.1f", x.lead_measured_s * 1e3) << " | " << fmt("%.1f", x.worst_whole_area_db) << " | "
+           << fmt("%.1f", x.worst_other_foci_db) << " | " << fmt("%.2f", x.min_peak_m * 1e6) << " | "
+           << fmt("%+.2f", x.margin_m * 1e6) << " | " << (x.all_cross ? "yes" : "no") << " | "
+           << (x.all_alone ? "yes" : "no") << " | " << fmt("%.3g", x.min_peak_per_root_energy * 1e6) << " | "
+           << fmt("%.3g", x.max_energy_n2s) << " | " << fmt("%.2f", 100 * x.max_out_of_band) << " | "
+           << (x.pairs ? std::to_string(x.pairs_failing) + " of " + std::to_string(x.pairs) : std::string("-"))
+           << " | "
+           << (x.pairs ? std::to_string(x.worst_pair[0]) + "+" + std::to_string(x.worst_pair[1]) + ": " +
+                             fmt("%+.2f", x.worst_pair_margin_m * 1e6)
+                       : std::string("-"))
+           << " | " << fmt("%.1f", x.max_sound_dba) << " |\n";
+    }
+    io::write_file_atomic(dir + "/latency.md", md.str());
+    return md.str();
+}
+
+}  // namespace calib::study
