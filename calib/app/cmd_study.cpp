@@ -2,9 +2,12 @@
 // time and memory (calib/study/accuracy.h, docs/ACCURACY.md).
 // `calibgen study design SWEEP.toml --report DIR`: design choices swept
 // through the whole calibration (calib/study/design.h, docs/design-studies.md).
+// `calibgen study robustness SCENE.toml --report DIR`: one table verified over
+// a tolerance box of perturbed plates (calib/study/robustness.h, docs/robustness.md).
 #include "app/commands.h"
 #include "study/accuracy.h"
 #include "study/design.h"
+#include "study/robustness.h"
 
 #include <cstdio>
 #include <memory>
@@ -90,6 +93,31 @@ void register_study(CLI::App &app, int &exit_code)
         ->check(CLI::Range(1, 1024));
     design->add_flag("-q,--quiet", d->quiet, "No progress on stderr, no summary on stdout");
     design->callback([d, &exit_code] { exit_code = study::run_design_study(*d); });
+
+    auto r = std::make_shared<study::RobustnessOptions>();
+    CLI::App *rob = study->add_subcommand(
+        "robustness", "Calibrate on the nominal plate, then verify the same table on perturbed plates (E, rho, "
+                      "thickness, loss, exciter positions, temperature; one at a time and in seeded random "
+                      "combinations), each from its own transfer matrix; CSV, tornado plot and summary");
+    rob->add_option("scene", r->scene_path, "Calibration scene (TOML); its [tolerance] is the box, else the default")
+        ->required();
+    rob->add_option("--report", r->report_dir, "Directory for robustness.csv, robustness_tornado.{svg,png}, "
+                                               "robustness.md")
+        ->required();
+    rob->add_option("--random", r->random_cases, "Random combinations (default: the box's, 8 for the default box)")
+        ->check(CLI::Range(0, 10000));
+    rob->add_option("--seed", r->seed, "Seed of the random combinations and exciter directions");
+    rob->add_flag("-q,--quiet", r->quiet, "No progress on stderr");
+    rob->callback([r, &exit_code] {
+        const study::RobustnessResult res = study::run_robustness_study(*r, [&](const std::string &line) {
+            if (!r->quiet)
+                std::fprintf(stderr, "%s\n", line.c_str());
+        });
+        const std::string md = study::write_robustness_report(res, r->report_dir);
+        std::printf("%s", md.c_str());
+        std::fprintf(stderr, "wrote %s/robustness.{csv,md}, robustness_tornado.{svg,png}\n", r->report_dir.c_str());
+        exit_code = 0;
+    });
 }
 
 }  // namespace calib::app

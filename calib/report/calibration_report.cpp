@@ -4,6 +4,7 @@
 #include "physics/dispersion.h"
 #include "report/field_image.h"
 #include "report/plot.h"
+#include "report/tolerance_report.h"
 
 #include <toml++/toml.h>
 
@@ -117,6 +118,8 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                                            {"verification", s.verification_s},
                                            {"total", c.total_s}});
     }
+    if (c.result && c.result->tolerance)  // the worst case over the scene's [tolerance]
+        root.insert("tolerance", tolerance_json(*c.result->tolerance));
     root.insert("peak_rss_mb", c.peak_rss_mb);
     std::ostringstream os;
     os << toml::json_formatter{root} << "\n";
@@ -432,6 +435,8 @@ void write_html_report(const std::string &dir, const ReportContext &c)
               << v.foci[f].id << " peaks (" << num(v.foci[f].peak_time_s * 1e3)
               << " ms); one colour scale for all foci, white line: the threshold</figcaption></figure>";
         h << "</div>" << worst_focus_html(c);
+        if (c.result && c.result->tolerance)
+            h << tolerance_html(*c.result->tolerance, v.foci.size());
     }
     h << "<h2>Displacement at the foci</h2><div class='grid'>";
     for (size_t f = 0; f < v.traces.size(); f++)
