@@ -258,6 +258,31 @@ TransferMatrix perturbed_transfer(const CalibrationInput &nominal, const Calibra
     });
 }
 
+std::optional<TransferMatrix> rescaled_transfer(const CalibrationInput &nominal, const CalibrationInput &perturbed,
+                                                const TransferMatrix &H, const Perturbation &p)
+{
+    bool moved = false;
+    for (Point o : p.exciter_offsets_m)
+        moved = moved || o.x_m != 0 || o.y_m != 0;
+    const engine::PlateParams &a = nominal.plate->params(), &b = perturbed.plate->params();
+    if (nominal.effects.thick_plate || moved || p.loss_scale != 1 || a.material.poisson != b.material.poisson)
+        return std::nullopt;
+    const double alpha = perturbed.plate->kappa() / nominal.plate->kappa();
+    // sigma0 would have to scale with alpha: only a negligible sigma0 allows it.
+    const double sigma_centre = loss_factor(*nominal.plate, nominal.pulse.centre_hz) * std::numbers::pi *
+                                nominal.pulse.centre_hz;
+    if (a.loss.sigma0 != 0 && std::abs(a.loss.sigma0 * (alpha - 1)) > 1e-9 * sigma_centre)
+        return std::nullopt;
+    TransferMatrix R = H;
+    const double mass_ratio = (a.material.density_kg_m3 * a.thickness_m) / (b.material.density_kg_m3 * b.thickness_m);
+    const auto g = static_cast<float>(mass_ratio / alpha);
+    for (float &v : R.data)
+        v *= g;
+    R.time_step_s = H.time_step_s / alpha;
+    R.rate_hz = H.rate_hz * alpha;
+    return R;
+}
+
 CaseFigures figures_of(const Verification &v, const std::vector<std::vector<int16_t>> &signals,
                        double force_full_scale_n, double rate_hz)
 {
@@ -317,7 +342,8 @@ CaseFigures worst_of(const std::vector<CaseFigures> &all)
 
 std::vector<ToleranceCase> evaluate_cases(const CalibrationInput &in, const std::vector<Point> &exciters,
                                           const std::vector<Perturbation> &cases, const StoredTable &table,
-                                          const StoredTable *plain, const ProgressFn &progress)
+                                          const StoredTable *plain, const ProgressFn &progress,
+                                          const TransferMatrix *nominal_H)
 {
     using Clock = std::chrono::steady_clock;
     std::vector<ToleranceCase> out;
@@ -328,7 +354,12 @@ std::vector<ToleranceCase> evaluate_cases(const CalibrationInput &in, const std:
         ToleranceCase c;
         c.perturbation = cases[i];
         const CalibrationInput pin = perturbed_input(in, cases[i]);
-        const TransferMatrix H = perturbed_transfer(in, pin, moved_exciters(in, exciters, cases[i]), true);
+        std::optional<TransferMatrix> scaled;
+        if (nominal_H)
+            scaled = rescaled_transfer(in, pin, *nominal_H, cases[i]);
+        c.rescaled = scaled.has_value();
+        const TransferMatrix H =
+            scaled ? std::move(*scaled) : perturbed_transfer(in, pin, moved_exciters(in, exciters, cases[i]), true);
         const double F = in.exciters.force_full_scale_n;
         c.table = figures_of(verify_signals_with(pin, H, table.signals, table.rate_hz), table.signals, F,
                              table.rate_hz);

@@ -17,6 +17,7 @@
 #include "pipeline/transfer.h"
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace calib::pipeline {
@@ -60,6 +61,21 @@ std::vector<Point> moved_exciters(const CalibrationInput &in, const std::vector<
 TransferMatrix perturbed_transfer(const CalibrationInput &nominal, const CalibrationInput &perturbed,
                                   const std::vector<Point> &exciters, bool lattice, const ProgressFn &progress = {});
 
+// H of a plate that differs from the nominal one only in kappa (by a factor
+// alpha) and in the mass per area m = rho d (E, rho, d; the loss law kept),
+// without a new simulation: with the step k / alpha the scheme's update is the
+// nominal one step for step (mu = kappa k / h^2, sigma1 k and the sigma0 k of
+// a loss law with sigma0 = 0 are unchanged) and the force term
+// k^2 F / (m h^2) of the same index-domain force is (m_0 / m) / alpha times
+// the nominal, so H' = H (m_0 / m) / alpha at the rate alpha / (M k): exact
+// for the scheme (to float round-off; the force's band edges move by alpha
+// with the rate). Only the last (1 - 1/alpha) of the verification tail lies
+// beyond the stored samples for alpha > 1 (the field there is taken as zero).
+// Empty when it does not apply (moved exciters, another loss, sigma0 != 0
+// with alpha != 1, the thick plate).
+std::optional<TransferMatrix> rescaled_transfer(const CalibrationInput &nominal, const CalibrationInput &perturbed,
+                                                const TransferMatrix &H, const Perturbation &p);
+
 // The figures of one verification of `signals` (for the drive energy).
 CaseFigures figures_of(const Verification &v, const std::vector<std::vector<int16_t>> &signals,
                        double force_full_scale_n, double rate_hz);
@@ -73,9 +89,12 @@ struct StoredTable {
 };
 
 // Verifies `table` (and `plain`, when given) on every perturbed plate; the
-// transfer matrix of each plate is simulated once and serves both.
+// transfer matrix of each plate is simulated once and serves both. With the
+// nominal H (`nominal_H`, lattice and foci), the plates it gives exactly
+// (rescaled_transfer) are not simulated again.
 std::vector<ToleranceCase> evaluate_cases(const CalibrationInput &in, const std::vector<Point> &exciters,
                                           const std::vector<Perturbation> &cases, const StoredTable &table,
-                                          const StoredTable *plain, const ProgressFn &progress = {});
+                                          const StoredTable *plain, const ProgressFn &progress = {},
+                                          const TransferMatrix *nominal_H = nullptr);
 
 }  // namespace calib::pipeline

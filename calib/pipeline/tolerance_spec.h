@@ -76,6 +76,7 @@ struct ToleranceCase {
     Perturbation perturbation;
     CaseFigures table;                          // the table as written
     std::optional<CaseFigures> nominal_design;  // with a robust design: the plain design on the same plate
+    bool rescaled = false;                      // H from the nominal one (pipeline/tolerance.h), not simulated
     double seconds = 0;
 };
 

@@ -63,7 +63,7 @@ ToleranceReport tolerance_stage(const CalibrationInput &in, const TransferMatrix
     } else if (robust) {
         cases = robust->members;
     }
-    r.cases = evaluate_cases(in, res.exciters, cases, table, other ? &*other : nullptr, progress);
+    r.cases = evaluate_cases(in, res.exciters, cases, table, other ? &*other : nullptr, progress, &H);
     std::vector<CaseFigures> mine{r.nominal}, theirs;
     if (r.nominal_design)
         theirs.push_back(*r.nominal_design);
