@@ -62,7 +62,8 @@ std::vector<Member> simulate_members(const CalibrationInput &in, const TransferM
     std::vector<Member> out;
     for (const Perturbation &m : members) {
         CalibrationInput pin = perturbed_input(in, m);
-        TransferMatrix Hm = perturbed_transfer(in, pin, H.exciters, lattice, progress);
+        std::optional<TransferMatrix> scaled = rescaled_transfer(in, pin, H, m);  // E scalings: exact, no simulation
+        TransferMatrix Hm = scaled ? std::move(*scaled) : perturbed_transfer(in, pin, H.exciters, lattice, progress);
         out.push_back({std::move(pin), std::move(Hm)});
     }
     return out;
