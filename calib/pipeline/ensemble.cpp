@@ -37,8 +37,8 @@ std::vector<Perturbation> ensemble_members(const CalibrationInput &in, const Rob
         p.youngs_scale = s;
         out.push_back(p);
     }
-    // Every member must take the scheme (a forced time step may not).
-    for (const Perturbation &p : out) {
+    // Every member must take the scheme (only a forced time step may not).
+    for (const Perturbation &p : in.simulation.time_step_s > 0 ? out : std::vector<Perturbation>{}) {
         try {
             perturbed_input(in, p);
         } catch (const std::invalid_argument &e) {
