@@ -11,6 +11,7 @@
 #include "pipeline/lead_time.h"
 #include "pipeline/plan.h"
 #include "report/calibration_report.h"
+#include "report/tolerance_report.h"
 #include "scene/calibration_input.h"
 #include "io/format.h"
 
@@ -313,6 +314,8 @@ int run_calibrate(const CalibrateArgs &a)
                       std::to_string(p.regular_variety).substr(0, 4));
     if (!a.quiet)
         print_summary(r.verification, in, true);
+    if (!a.quiet && r.tolerance)
+        std::fprintf(stderr, "%s", report::tolerance_text(*r.tolerance, r.verification.foci.size()).c_str());
     if (!a.report.empty()) {
         std::optional<engine::PlateModes> modes;
         if (a.modes != 0) {

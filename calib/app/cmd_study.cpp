@@ -4,11 +4,14 @@
 // through the whole calibration (calib/study/design.h, docs/design-studies.md).
 // `calibgen study latency SCENE --report DIR`: lead time against focusing for
 // time reversal and the inverse filter (calib/study/latency.h).
+// `calibgen study robustness SCENE.toml --report DIR`: one table verified over
+// a tolerance box of perturbed plates (calib/study/robustness.h, docs/robustness.md).
 #include "app/commands.h"
 #include "io/format.h"
 #include "study/accuracy.h"
 #include "study/design.h"
 #include "study/latency.h"
+#include "study/robustness.h"
 
 #include <cstdio>
 #include <memory>
@@ -135,6 +138,30 @@ void register_study(CLI::App &app, int &exit_code)
     latency->add_flag("--no-pairs", l->no_pairs, "Skip the two-finger verification of every pair of foci");
     latency->add_flag("-q,--quiet", l->quiet, "No progress on stderr");
     latency->callback([l, &exit_code] { exit_code = run_study_latency(*l); });
+    auto r = std::make_shared<study::RobustnessOptions>();
+    CLI::App *rob = study->add_subcommand(
+        "robustness", "Calibrate on the nominal plate, then verify the same table on perturbed plates (E, rho, "
+                      "thickness, loss, exciter positions, temperature; one at a time and in seeded random "
+                      "combinations), each from its own transfer matrix; CSV, tornado plot and summary");
+    rob->add_option("scene", r->scene_path, "Calibration scene (TOML); its [tolerance] is the box, else the default")
+        ->required();
+    rob->add_option("--report", r->report_dir, "Directory for robustness.csv, robustness_tornado.{svg,png}, "
+                                               "robustness.md")
+        ->required();
+    rob->add_option("--random", r->random_cases, "Random combinations (default: the box's, 8 for the default box)")
+        ->check(CLI::Range(0, 10000));
+    rob->add_option("--seed", r->seed, "Seed of the random combinations and exciter directions");
+    rob->add_flag("-q,--quiet", r->quiet, "No progress on stderr");
+    rob->callback([r, &exit_code] {
+        const study::RobustnessResult res = study::run_robustness_study(*r, [&](const std::string &line) {
+            if (!r->quiet)
+                std::fprintf(stderr, "%s\n", line.c_str());
+        });
+        const std::string md = study::write_robustness_report(res, r->report_dir);
+        std::printf("%s", md.c_str());
+        std::fprintf(stderr, "wrote %s/robustness.{csv,md}, robustness_tornado.{svg,png}\n", r->report_dir.c_str());
+        exit_code = 0;
+    });
 }
 
 }  // namespace calib::app

@@ -47,9 +47,10 @@ double Material::kappa(double thickness_m) const
 const std::vector<Material> &builtin_materials()
 {
     static const std::vector<Material> table = {
-        {"acrylic", 1200.0, 4.76e9, 0.38},
-        {"glass", 1590.0, 68.9e9, 0.16},
-        {"steel", 7850.0, 205e9, 0.28},
+        // Temperature coefficients and loss ranges: docs/robustness.md (sources there).
+        {"acrylic", 1200.0, 4.76e9, 0.38, -4e-3, 0.030, 0.050},
+        {"glass", 1590.0, 68.9e9, 0.16, -1e-4, 0, 0},
+        {"steel", 7850.0, 205e9, 0.28, -4e-4, 0, 0},
     };
     return table;
 }

@@ -15,6 +15,12 @@ struct Material {
     double density_kg_m3 = 0;   // rho
     double youngs_pa = 0;       // E
     double poisson = 0;         // nu
+    // What varies between panels and with the room (docs/robustness.md):
+    // relative change of E per kelvin near room temperature (dE/E/dT, 1/K),
+    // and the stated range of the loss factor eta in the audio band (0, 0:
+    // none stated). Not used by the plate itself; the tolerance study reads them.
+    double youngs_per_kelvin = 0;
+    double loss_factor_min = 0, loss_factor_max = 0;
 
     // Throws std::invalid_argument unless rho, E are positive and finite and
     // nu lies in (-1, 0.5) (the range where the solid is stable).

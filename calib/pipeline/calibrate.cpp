@@ -5,6 +5,7 @@
 #include "pipeline/inverse_filter.h"
 #include "pipeline/lead_time.h"
 #include "pipeline/plan.h"
+#include "pipeline/robust.h"
 #include "pipeline/verification.h"
 
 #include "engine/effects/exciter.h"
@@ -122,6 +123,10 @@ void check_feasible(const CalibrationInput &in)
                                     " s along the diagonal at the A0 group velocity)");
     if (in.calibration.window_s * in.calibration.truncate_fraction < pulse_duration_s(in.pulse))
         throw std::invalid_argument("calibration.truncate_fraction: the kept part of the window is shorter than the pulse");
+    if (in.tolerance)
+        check_tolerance(in, *in.tolerance);
+    if (in.robust)
+        ensemble_members(in, *in.robust);  // refuses members the scheme cannot take
     const Band band = band_of(in);
     check_lead_time(in, in.exciters.placement == PlacementMode::fixed ? in.exciters.positions : plan(in).sites);
     if (in.exciters.placement == PlacementMode::fixed) {
@@ -188,10 +193,21 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
     tro.dither = in.calibration.dither;
     res.signals = in.calibration.method == DriveMethod::inverse_filter ? inverse_filter_signals(in, H)
                                                                       : signals_from_transfer(in, H);
+    // A robust design (time reversal over the ensemble) replaces them; the
+    // plain design stays for the comparison.
+    std::vector<DriveSignals> plain;
+    std::optional<RobustDesign> robust;
+    if (in.robust) {
+        robust = robust_design(in, H, progress);
+        plain = std::move(res.signals);
+        res.signals = robust->signals;
+    }
     if (in.effects.exciter && in.effects.exciter->precompensate)
         for (size_t f = 0; f < res.signals.size(); f++) {
             tro.dither_seed = in.exciters.seed * 1000003u + f;
             precompensate_for_exciter(res.signals[f], *in.effects.exciter, tro);
+            if (f < plain.size())
+                precompensate_for_exciter(plain[f], *in.effects.exciter, tro);
         }
     res.times.signals_s = seconds_since(t0);
 
@@ -219,12 +235,17 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
             throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) +
                                      ": the exciters produce no displacement there");
         tro.dither_seed = in.exciters.seed * 1000003u + f;
-        requantize(res.signals[f], std::min(1.0, in.pulse.amplitude_m / res.full_scale_peak_m[f]), tro);
+        const double amplitude = robust && !robust->amplitude_m.empty() ? robust->amplitude_m[f] : in.pulse.amplitude_m;
+        requantize(res.signals[f], std::min(1.0, amplitude / res.full_scale_peak_m[f]), tro);
     }
     res.verification = lti ? verify_signals_with(in, H, quantized(), in.calibration.output_rate_hz, progress)
                            : verify_signals_forward(in, res.exciters, quantized(), in.calibration.output_rate_hz,
                                                     progress, true);
     res.times.verification_s = seconds_since(t0);
+
+    // 6. The table over the scene's tolerance box (pipeline/robust.h).
+    if (in.tolerance || in.robust)
+        res.tolerance = tolerance_stage(in, H, res, std::move(plain), robust ? &*robust : nullptr, progress);
 }
 
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H)

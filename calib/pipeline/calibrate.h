@@ -11,10 +11,12 @@
 #include "engine/simulation.h"
 #include "pipeline/spec.h"
 #include "pipeline/time_reversal.h"
+#include "pipeline/tolerance_spec.h"
 
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +33,8 @@ struct CalibrationInput {
     PulseSpec pulse;
     CalibrationSpec calibration;
     engine::effects::EffectsSpec effects;  // [effects]; the exciter model acts here (docs/effects.md)
+    std::optional<ToleranceSpec> tolerance;  // [tolerance]: verify over the box (docs/robustness.md)
+    std::optional<RobustSpec> robust;        // [calibration] robust: design over an ensemble
 };
 
 // Progress of long stages (stage name, items done, items total).
@@ -127,6 +131,7 @@ struct CalibrationResult {
     StageTimes times;
     double search_rate_hz = 0;          // rate of the stored (decimated) recordings
     TransferSummary transfer;           // empty on the forward path ([effects.finger])
+    std::optional<ToleranceReport> tolerance;  // with [tolerance] or a robust design (pipeline/robust.h)
 };
 
 // Refuses impossible scenes before any simulation (std::invalid_argument,

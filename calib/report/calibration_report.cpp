@@ -8,6 +8,7 @@
 #include "report/modes_section.h"
 #include "report/report_fields.h"
 #include "report/plot.h"
+#include "report/tolerance_report.h"
 
 #include <toml++/toml.h>
 
@@ -127,6 +128,8 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
     }
     if (c.modes)
         root.insert("modes", modes_json(*c.modes));
+    if (c.result && c.result->tolerance)  // the worst case over the scene's [tolerance]
+        root.insert("tolerance", tolerance_json(*c.result->tolerance));
     root.insert("peak_rss_mb", c.peak_rss_mb);
     std::ostringstream os;
     os << toml::json_formatter{root} << "\n";
@@ -382,6 +385,8 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     h << "</table>" << drive_design_html(c);
     if (c.mode == "table") {
         h << field_sections_html(c, shown);
+        if (c.result && c.result->tolerance)
+            h << tolerance_html(*c.result->tolerance, v.foci.size());
     }
     h << "<h2>Displacement at the foci</h2><div class='grid'>";
     if (c.mode != "table")

@@ -20,6 +20,8 @@ pipeline::CalibrationInput calibration_input(const Scene &s, const PlateSetup &s
     in.pulse = *s.pulse;
     in.calibration = *s.calibration;
     in.effects = s.effects;
+    in.tolerance = s.tolerance;
+    in.robust = s.robust;
     return in;
 }
 

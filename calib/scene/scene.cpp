@@ -2,6 +2,7 @@
 
 #include "scene/calibration_sections.h"
 #include "scene/effects_section.h"
+#include "scene/tolerance_section.h"
 #include "scene/toml_fields.h"
 
 #include "engine/mindlin/mindlin_operator.h"
@@ -182,10 +183,25 @@ void parse_pulse_section(const toml::table &t, Scene &scene)
 
 void parse_calibration_section(const toml::table &t, Scene &scene)
 {
-    scene.calibration = parse_calibration(Fields(t, scene.file, "calibration",
-                                                 {"window_s", "truncate_fraction", "output_rate_hz", "sample_format",
-                                                  "threshold_m", "dither", "accuracy", "verify_tail_s", "method",
-                                                  "lead_time_s", "regularization"}));
+    const Fields f(t, scene.file, "calibration",
+                   {"window_s", "truncate_fraction", "output_rate_hz", "sample_format", "threshold_m", "dither",
+                    "accuracy", "verify_tail_s", "method", "lead_time_s", "regularization", "robust"});
+    scene.calibration = parse_calibration(f);
+    if (f.has("robust")) {
+        scene.robust = parse_robust(f);
+        if (scene.calibration->method == pipeline::DriveMethod::inverse_filter)
+            f.fail("robust", "the robust design is time reversal over the ensemble; it does not combine with "
+                             "method = \"inverse_filter\"");
+    }
+}
+
+void parse_tolerance_section(const toml::table &t, Scene &scene)
+{
+    scene.tolerance = parse_tolerance(Fields(t, scene.file, "tolerance",
+                                             {"E_rel", "rho_rel", "thickness_rel", "loss", "loss_scale",
+                                              "exciter_position_m", "temperature_k", "E_per_k", "random_cases",
+                                              "seed"}),
+                                      scene.plate);
 }
 
 void parse_effects_section(const toml::table &t, Scene &scene)
@@ -204,6 +220,7 @@ constexpr Section sections[] = {
     {"pulse", false, parse_pulse_section},
     {"calibration", false, parse_calibration_section},
     {"effects", false, parse_effects_section},
+    {"tolerance", false, parse_tolerance_section},
 };
 
 }  // namespace

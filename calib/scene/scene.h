@@ -11,6 +11,7 @@
 #include "engine/simulation.h"
 #include "physics/material.h"
 #include "pipeline/spec.h"
+#include "pipeline/tolerance_spec.h"
 
 #include <memory>
 #include <optional>
@@ -58,6 +59,8 @@ struct Scene {
     std::optional<pipeline::PulseSpec> pulse;
     std::optional<pipeline::CalibrationSpec> calibration;
     engine::effects::EffectsSpec effects;  // [effects] (docs/scene-format.md); all off when absent
+    std::optional<pipeline::ToleranceSpec> tolerance;  // [tolerance] (docs/robustness.md)
+    std::optional<pipeline::RobustSpec> robust;        // [calibration] robust = { ... }
     bool calibration_sections() const { return active_area && exciters && foci && pulse && calibration; }
 };
 

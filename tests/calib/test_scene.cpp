@@ -111,7 +111,7 @@ TEST(Scene, UnknownKeysAndSectionsAreRefusedWithTheKnownOnes)
               "scene.toml: plate.colour: unknown key (known: size_m, thickness_m, material, edges, loss)");
     EXPECT_EQ(error_of(std::string(good) + "\n[plate_extra]\nx = 1\n"),
               "scene.toml: plate_extra: unknown section (known: name, plate, simulation, active_area, exciters, foci, "
-              "pulse, calibration, effects)");
+              "pulse, calibration, effects, tolerance)");
     EXPECT_EQ(error_of(replace(good, "frequencies_hz", "freqs")),
               "scene.toml: plate.loss.freqs: unknown key (known: frequencies_hz, t60_s)");
     EXPECT_EQ(error_of("[plate]\nsize_m = [1, 1]\n"), "scene.toml: plate.thickness_m: missing (required)");

@@ -1,0 +1,82 @@
+#include "pipeline/robust.h"
+#include "pipeline/verification.h"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+#include <string>
+
+namespace calib::pipeline {
+
+namespace {
+
+std::vector<std::vector<int16_t>> quantized(const std::vector<DriveSignals> &signals)
+{
+    std::vector<std::vector<int16_t>> q;
+    for (const DriveSignals &d : signals)
+        q.push_back(d.samples);
+    return q;
+}
+
+}  // namespace
+
+std::vector<std::vector<int16_t>> level_as_stored(const CalibrationInput &in, const TransferMatrix &H,
+                                                  std::vector<DriveSignals> signals)
+{
+    TimeReversalOptions tro;
+    tro.truncate_fraction = in.calibration.truncate_fraction;
+    tro.output_rate_hz = in.calibration.output_rate_hz;
+    tro.dither = in.calibration.dither;
+    const std::vector<double> peak = focal_peaks(in, H, quantized(signals), in.calibration.output_rate_hz);
+    for (std::size_t f = 0; f < signals.size(); f++) {
+        if (!(peak[f] > 0))
+            throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) +
+                                     ": the exciters produce no displacement there");
+        tro.dither_seed = in.exciters.seed * 1000003u + f;  // the seeds calibrate() uses
+        requantize(signals[f], std::min(1.0, in.pulse.amplitude_m / peak[f]), tro);
+    }
+    return quantized(signals);
+}
+
+ToleranceReport tolerance_stage(const CalibrationInput &in, const TransferMatrix &H, const CalibrationResult &res,
+                                std::vector<DriveSignals> plain, const RobustDesign *robust,
+                                const ProgressFn &progress)
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    const double rate = in.calibration.output_rate_hz, F = in.exciters.force_full_scale_n;
+    ToleranceReport r;
+    const StoredTable table{quantized(res.signals), rate};
+    r.nominal = figures_of(res.verification, table.signals, F, rate);
+    std::optional<StoredTable> other;
+    if (robust) {
+        other = StoredTable{level_as_stored(in, H, std::move(plain)), rate};
+        r.nominal_design = figures_of(verify_signals_with(in, H, other->signals, rate), other->signals, F, rate);
+        for (const Perturbation &m : robust->members)
+            r.ensemble.push_back(m.name);
+        r.ensemble_seconds = robust->seconds;
+    }
+    std::vector<Perturbation> cases;
+    if (in.tolerance) {
+        cases = one_at_a_time(in, *in.tolerance);
+        for (Perturbation &p : random_combinations(in, *in.tolerance, in.tolerance->random_cases, in.tolerance->seed))
+            cases.push_back(std::move(p));
+    } else if (robust) {
+        cases = robust->members;
+    }
+    r.cases = evaluate_cases(in, res.exciters, cases, table, other ? &*other : nullptr, progress, &H);
+    std::vector<CaseFigures> mine{r.nominal}, theirs;
+    if (r.nominal_design)
+        theirs.push_back(*r.nominal_design);
+    for (const ToleranceCase &c : r.cases) {
+        mine.push_back(c.table);
+        if (c.nominal_design)
+            theirs.push_back(*c.nominal_design);
+    }
+    r.worst = worst_of(mine);
+    if (!theirs.empty())
+        r.nominal_design_worst = worst_of(theirs);
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+}
+
+}  // namespace calib::pipeline
