@@ -42,7 +42,7 @@ double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::Vec
     v.normalize();
     std::vector<double> alpha, beta;
     double last = 0.0;
-    const int max_iter = 300;
+    const int max_iter = lanczos_max_iterations;
     for (int it = 0; it < max_iter; ++it) {
         w = s.cwiseProduct(a * s.cwiseProduct(v));
         if (!beta.empty())

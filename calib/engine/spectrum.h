@@ -30,7 +30,9 @@ private:
 // Largest eigenvalue of M^-1 A (A symmetric positive semi-definite, M a
 // positive diagonal). Dense symmetric solver below `dense_limit` unknowns;
 // Lanczos (no re-orthogonalisation: the extreme Ritz value converges anyway)
-// above, until the Ritz value is stable to ~1e-12.
+// above, until the Ritz value is stable to ~1e-12 or after
+// lanczos_max_iterations products with A.
+inline constexpr int lanczos_max_iterations = 300;
 double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag,
                                       int dense_limit = 1200);
 
