@@ -11,6 +11,8 @@
 #include "pipeline/transfer.h"
 #include "scene/calibration_input.h"
 
+#include "scene_text.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -21,43 +23,10 @@ using namespace calib;
 
 namespace {
 
-// A small lossy acrylic plate (the demonstrator scaled down).
+// A small lossy acrylic plate (the demonstrator scaled down), in the given precision.
 std::string plate_scene(const std::string &precision)
 {
-    return R"(
-name = "sites"
-[plate]
-size_m = [0.30, 0.24]
-thickness_m = 0.002
-material = "acrylic"
-edges = "clamped"
-[plate.loss]
-frequencies_hz = [400, 1200]
-t60_s = [0.135, 0.045]
-[simulation]
-points_per_wavelength = 8
-precision = ")" + precision + R"("
-[active_area]
-rect_m = [0.05, 0.05, 0.25, 0.19]
-frame_margin_m = 0.01
-clearance_m = 0.003
-[exciters]
-count = 2
-placement = "random"
-min_spacing_m = 0.03
-[foci]
-points_m = [[0.1, 0.1], [0.2, 0.14]]
-[pulse]
-shape = "hann_burst"
-centre_hz = 1200
-cycles = 2
-amplitude_m = 10e-6
-[calibration]
-window_s = 0.03
-truncate_fraction = 0.3
-output_rate_hz = 48000
-threshold_m = 5e-6
-)";
+    return scene_text::replace(scene_text::load("sites.toml"), "precision = \"double\"", "precision = \"" + precision + "\"");
 }
 
 const std::vector<pipeline::Point> sites = {{0.021, 0.033}, {0.273, 0.205}, {0.015, 0.12}, {0.15, 0.228}, {0.2871, 0.0173}};
