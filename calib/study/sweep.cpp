@@ -140,7 +140,9 @@ std::string value_text(const toml::node &v)
         std::string r;
         for (const char *k : {"left", "right", "bottom", "top"}) {
             const auto e = (*t)[k].value<std::string>();
-            r += (r.empty() ? "" : "/") + e.value_or("?");
+            if (!r.empty())
+                r += '/';
+            r += e.value_or("?");
         }
         return r;
     }
