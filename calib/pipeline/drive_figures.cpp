@@ -10,6 +10,15 @@
 
 namespace calib::pipeline {
 
+double drive_energy_n2s(const std::vector<int16_t> &samples, double force_full_scale_n, double rate_hz)
+{
+    const double to_n = force_full_scale_n / 32767.0;
+    double e = 0;
+    for (const int16_t s : samples)
+        e += (s * to_n) * (s * to_n);
+    return e / rate_hz;
+}
+
 DriveFigures drive_figures(const CalibrationInput &in, const std::vector<int16_t> &samples, unsigned channels,
                            double rate_hz, double peak_m)
 {

@@ -1,6 +1,7 @@
 #include "pipeline/tolerance.h"
 
 #include "io/format.h"
+#include "pipeline/drive_figures.h"
 #include "pipeline/verification.h"
 
 #include <algorithm>
@@ -304,12 +305,7 @@ CaseFigures figures_of(const Verification &v, const std::vector<std::vector<int1
         c.fig8_holds += holds;
         c.fig8_fails += !holds;
         c.area_crossings += m.whole_area && !m.whole_area_below_threshold;
-        // Drive energy at the exciters: sum over channels of integral F^2 dt (N^2 s).
-        double e = 0;
-        if (f < signals.size())
-            for (float x : to_unit(signals[f]))
-                e += double(x) * double(x);
-        e *= force_full_scale_n * force_full_scale_n / rate_hz;
+        const double e = f < signals.size() ? drive_energy_n2s(signals[f], force_full_scale_n, rate_hz) : 0.0;
         if (e > 0)
             ppe += m.peak_m / std::sqrt(e);
     }

@@ -384,3 +384,13 @@ TEST(Radiation, SmallBaffledPistonAndATone)
         tone[s] = std::sin(2 * std::numbers::pi * 1000 * double(s) / R);
     EXPECT_NEAR(pipeline::a_weighted_exposure(tone, R), 0.25, 0.25 * 0.01);
 }
+
+// The force energy of stored int16 signals, by hand: full scale 2 N at
+// 1 kHz, samples +FS, -FS, 0 and 16384 (1.000031 N).
+TEST(DriveFigures, ForceEnergyOfStoredSignalsByHand)
+{
+    const double half = 2.0 * 16384.0 / 32767.0;
+    EXPECT_DOUBLE_EQ(pipeline::drive_energy_n2s({32767, -32767, 0, 16384}, 2.0, 1000.0),
+                     (4.0 + 4.0 + 0.0 + half * half) / 1000.0);
+    EXPECT_EQ(pipeline::drive_energy_n2s({}, 2.0, 1000.0), 0.0);
+}
