@@ -1,5 +1,6 @@
 #include "model/resources.h"
 
+#include "engine/modes.h"
 #include "engine/spectrum.h"
 #include "model/error_model.h"
 #include "pipeline/focus_subset.h"
@@ -145,7 +146,9 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
     const double k = s.simulation.time_step_s ? *s.simulation.time_step_s : courant * g.h * g.h / (4 * kappa);
     const double mb = 1024.0 * 1024.0;
     const engine::Precision prec = s.effects.thick_plate ? engine::Precision::f64 : s.simulation.precision;
-    double memory_mb = current_rss_mb(), node_steps = 0;
+    // Building the plate peaks at its operator's assembly (the triplets next to
+    // the finished matrices), whatever runs on it after.
+    double memory_mb = current_rss_mb() + engine::plate_operator_bytes(std::size_t(nodes)) / mb, node_steps = 0;
     std::string cause;
     if (!calibration) {
         const double steps = std::ceil(duration_s / k);
