@@ -107,91 +107,6 @@ double PlateEngine<T>::force_gain(std::size_t node) const
     return d * k_ * k_ / op_->mass()[u];
 }
 
-// Rows for the unknowns of the edge band, in the same form as the bulk kernel:
-//   d+ = g d - R u - S d,  u+ = u + d+,
-//   R = dd k^2 M^-1 K,  S = dd 2 sigma1 k M^-1 Gm,  dd = 1 / (1 + sigma0 k)
-// (u+ = u + g (u - u-) - (R + S) u + S u- written with d = u - u-),
-// built from the factored K and Gm (sum of weight (a b^T + b a^T) / 2): row n
-// of R u is sum_s coef_ns (s . u) over the strains s. Stored as assembled
-// matrix rows instead, the float-rounded coefficients no longer sum to zero
-// against a tilt: a free plate's rotation modes then get eigenvalues ~ -1e-10
-// of M^-1 K k^2 and grow exponentially (docs/engine.md).
-template <typename T>
-void PlateEngine<T>::build_edge_rows()
-{
-    const PlateOperator &op = *op_;
-    const Loss &loss = op.params().loss;
-    const double d = 1.0 / (1.0 + loss.sigma0 * k_);
-    const auto &stencils = op.edge_stencils();
-    // Per band node: sum over terms of weight/2 (a_n (b . u) + b_n (a . u)),
-    // as a map strain -> coefficient (before the 1/m_n scaling).
-    std::map<std::size_t, std::map<std::size_t, double>> rows_k, rows_g;
-    auto add_terms = [&](const std::vector<PlateOperator::FormTerm> &terms,
-                         std::map<std::size_t, std::map<std::size_t, double>> &rows) {
-        for (const auto &f : terms) {
-            const PlateOperator::Stencil &sa = stencils[f.a], &sb = stencils[f.b];
-            for (auto [own, other] : {std::pair{&sa, f.b}, std::pair{&sb, f.a}}) {
-                const double other_scale = stencils[other].scale;
-                for (int t = 0; t < own->count; ++t) {
-                    const std::size_t node = own->node[std::size_t(t)];
-                    const int i = int(node % std::size_t(nx_ + 1)), j = int(node / std::size_t(nx_ + 1));
-                    if (!op.in_edge_band(i, j))
-                        continue;
-                    rows[node][other] +=
-                        0.5 * f.weight * own->weight[std::size_t(t)] * own->scale * other_scale;
-                }
-            }
-        }
-    };
-    add_terms(op.edge_stiffness_terms(), rows_k);
-    if (loss.sigma1 > 0)
-        add_terms(op.edge_dirichlet_terms(), rows_g);
-
-    for (StrainRows *rows : {&edge_r_, &edge_s_}) {
-        *rows = {};
-        rows->start.assign(1, 0);
-        rows->strain_start.assign(1, 0);
-    }
-    // Each StrainRows keeps the strains it reads, renumbered.
-    auto strain_index = [&](StrainRows &rows, std::map<std::size_t, std::uint32_t> &index, std::size_t s) {
-        auto [it, fresh] = index.try_emplace(s, std::uint32_t(index.size()));
-        if (fresh) {
-            const PlateOperator::Stencil &st = stencils[s];
-            for (int t = 0; t < st.count; ++t) {
-                rows.strain_offset.push_back(offset_of(st.node[std::size_t(t)]));
-                rows.strain_weight.push_back(T(st.weight[std::size_t(t)]));
-            }
-            rows.strain_start.push_back(std::uint32_t(rows.strain_offset.size()));
-        }
-        return it->second;
-    };
-    std::map<std::size_t, std::uint32_t> index_r, index_s;
-    for (std::size_t u = 0; u < op.unknown_count(); ++u) {
-        const std::size_t node = op.node_of()[u];
-        const int i = int(node % std::size_t(nx_ + 1)), j = int(node / std::size_t(nx_ + 1));
-        if (!op.in_edge_band(i, j))
-            continue;  // bulk
-        const double minv = 1.0 / op.mass()[Eigen::Index(u)];
-        std::map<std::size_t, double> r, s;
-        for (auto [strain, c] : rows_k[node])
-            r[strain] += d * k_ * k_ * minv * c;
-        for (auto [strain, c] : rows_g[node])
-            s[strain] += d * 2 * loss.sigma1 * k_ * minv * c;
-        for (auto [rows, src, index] : {std::tuple{&edge_r_, &r, &index_r}, std::tuple{&edge_s_, &s, &index_s}}) {
-            rows->target.push_back(offset_of(node));
-            for (auto [strain, c] : *src)
-                if (c != 0.0) {
-                    rows->strain.push_back(strain_index(*rows, *index, strain));
-                    rows->coef.push_back(T(c));
-                }
-            rows->start.push_back(std::uint32_t(rows->strain.size()));
-        }
-    }
-    edge_r_.strain_value.assign(edge_r_.strain_start.size() - 1, T(0));
-    edge_s_.strain_value.assign(edge_s_.strain_start.size() - 1, T(0));
-    band_next_.assign(edge_r_.target.size(), 0.0);
-}
-
 // Every rigid_interval steps a free plate's rigid-body momenta are restored
 // to their exact values (plate_engine_rigid.cpp).
 constexpr std::size_t rigid_interval = 16;
@@ -263,36 +178,14 @@ void PlateEngine<T>::step_impl()
 {
     // The edge band first, into band_next_: its strains read u^n and d^n
     // around the band, which the bulk then updates in place.
-    auto strains = [](StrainRows &rows, const T *field) {
-        const std::size_t n = rows.strain_value.size();
-        for (std::size_t s = 0; s < n; ++s) {
-            double v = 0;
-            for (std::uint32_t e = rows.strain_start[s]; e < rows.strain_start[s + 1]; ++e)
-                v += double(rows.strain_weight[e]) * double(field[rows.strain_offset[e]]);
-            rows.strain_value[s] = v;
-        }
-    };
-    strains(edge_r_, u_);
-    if constexpr (Lossy)
-        strains(edge_s_, inc_);
-    const std::size_t rows = edge_r_.target.size();
+    edge_band_update<Lossy>();
     const double g = double(bulk_.g);
-    for (std::size_t r = 0; r < rows; ++r) {
-        double v = g * double(inc_[edge_r_.target[r]]);
-        for (std::uint32_t e = edge_r_.start[r]; e < edge_r_.start[r + 1]; ++e)
-            v -= double(edge_r_.coef[e]) * edge_r_.strain_value[edge_r_.strain[e]];
-        if constexpr (Lossy) {
-            for (std::uint32_t e = edge_s_.start[r]; e < edge_s_.start[r + 1]; ++e)
-                v -= double(edge_s_.coef[e]) * edge_s_.strain_value[edge_s_.strain[e]];
-        }
-        band_next_[r] = v;
-    }
     // The bulk: d^{n+1} into inc_before_ (d^{n-1} is no longer needed), u in place.
     const int i0 = 2, i1 = nx_ - 1, j0 = 2, j1 = ny_ - 1;
     if (i1 > i0 && j1 > j0)
         bulk_update_threads<T, Lossy>(u_, inc_, inc_before_, stride_, i0, i1, j0, j1, bulk_, bulk_threads_, scratch_);
-    for (std::size_t r = 0; r < rows; ++r) {
-        const std::ptrdiff_t self = edge_r_.target[r];
+    for (std::size_t r = 0; r < band_target_.size(); ++r) {
+        const std::ptrdiff_t self = band_target_[r];
         const T v = T(band_next_[r]);
         inc_before_[self] = v;
         u_[self] += v;

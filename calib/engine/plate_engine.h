@@ -119,15 +119,21 @@ private:
     // The band sums in double (a row has up to ~20 terms; the band is a thin
     // fraction of the grid), so its round-off is one rounding per node and
     // step, as in the bulk.
-    struct StrainRows {
-        std::vector<std::uint32_t> strain_start;  // size strain count + 1
-        std::vector<std::ptrdiff_t> strain_offset;
-        std::vector<T> strain_weight;  // small integers, exact in T
-        std::vector<double> strain_value;  // scratch, one per strain
-        std::vector<std::ptrdiff_t> target;
-        std::vector<std::uint32_t> start;  // size target.size() + 1
+    // Stored grouped by length (plate_engine_edge.cpp).
+    static constexpr int max_strain_nodes = 4;  // PlateOperator::Stencil
+    struct StrainSet {
+        // Strains [length_end[L-1], length_end[L]) have L nodes.
+        std::array<std::uint32_t, max_strain_nodes + 1> length_end{};
+        std::vector<std::ptrdiff_t> offset;
+        std::vector<T> weight;  // small integers, exact in T
+        std::vector<double> value;  // scratch, one per strain
+    };
+    struct RowTerms {  // the rows' terms, row after row
         std::vector<std::uint32_t> strain;
         std::vector<T> coef;
+    };
+    struct RowGroup {  // consecutive rows with the same term counts
+        std::uint32_t rows = 0, r_terms = 0, s_terms = 0;
     };
     struct PointTap {
         std::vector<std::ptrdiff_t> offset;
@@ -142,6 +148,8 @@ private:
     void restore_rigid_momenta();
     std::ptrdiff_t offset_of(std::size_t node) const;
     void build_edge_rows();
+    template <bool Lossy>
+    void edge_band_update();  // band_next_ from u^n and d^n
 
     std::shared_ptr<const PlateOperator> op_;
     EngineOptions options_;
@@ -155,7 +163,11 @@ private:
     T *u_ = nullptr, *inc_ = nullptr, *inc_before_ = nullptr;  // u^n, d^n, d^{n-1} (before a step)
     T *scratch_ = nullptr;  // the bulk kernel's rows, bulk_threads_ * bulk_scratch_rows
     BulkCoefficients<T> bulk_{};
-    StrainRows edge_r_, edge_s_;  // d+ = g d - R u - S d on the edge band
+    // d+ = g d - R u - S d on the edge band: strains of u and rows of R, strains of d and rows of S.
+    StrainSet strains_r_, strains_s_;
+    RowTerms terms_r_, terms_s_;
+    std::vector<RowGroup> row_groups_;
+    std::vector<std::ptrdiff_t> band_target_;  // field offset of each band row
     std::vector<double> band_next_;  // d^{n+1} of the band, held while the bulk reads d^n
     // Rigid-body modes r_c = R b_c (R: the fields 1, i, j on the unknowns) that
     // K (and Gm, with sigma1 loss) annihilate; the momenta p_c = r_c^T M d the

@@ -1,11 +1,12 @@
 #include "pipeline/placement.h"
+#include "pipeline/real_fft.h"
 
-#include <unsupported/Eigen/FFT>
 
 #include <algorithm>
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -125,38 +126,57 @@ ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> 
     }
     corr_.assign(sites_ * foci_ * rows_ * lags_, 0.0f);
 
+    // Correlations through real FFTs (FFTW), one plan per thread. A thread
+    // whose plan failed still takes part in the loop (no thread may leave the
+    // work-sharing) and skips its share; the failure is thrown after.
+    std::string failure;
 #pragma omp parallel
     {
-        Eigen::FFT<double> fft;
-        std::vector<double> buf(nfft);
-        std::vector<std::vector<std::complex<double>>> spec_full(rows_), spec_kept(foci_);
-        std::vector<std::complex<double>> prod(nfft);
-        std::vector<double> out(nfft);
+        std::unique_ptr<RealFft> fft;
+        try {
+            fft = std::make_unique<RealFft>(nfft);
+        } catch (const std::exception &ex) {
+#pragma omp critical
+            failure = ex.what();
+        }
+        const size_t bins = nfft / 2 + 1;
+        std::vector<std::complex<double>> spec_full(fft ? rows_ * bins : 0), spec_kept(fft ? foci_ * bins : 0);
+        const double scale = 1.0 / static_cast<double>(nfft);  // FFTW's inverse is unnormalized
 #pragma omp for schedule(dynamic)
         for (size_t i = 0; i < sites_; i++) {
+            if (!fft)
+                continue;
+            double *x = fft->real();
+            std::complex<double> *X = fft->spectrum();
             for (size_t g = 0; g < rows_; g++) {
-                std::fill(buf.begin(), buf.end(), 0.0);
-                std::copy(h[g][i].begin(), h[g][i].end(), buf.begin());
-                fft.fwd(spec_full[g], buf);
+                std::fill(x, x + nfft, 0.0);
+                std::copy(h[g][i].begin(), h[g][i].end(), x);
+                fft->forward();
+                std::copy(X, X + bins, &spec_full[g * bins]);
                 if (g < foci_) {
-                    std::fill(buf.begin(), buf.end(), 0.0);
-                    std::copy(r[g][i].begin(), r[g][i].begin() + static_cast<long>(keep), buf.begin());
-                    fft.fwd(spec_kept[g], buf);
+                    std::fill(x, x + nfft, 0.0);
+                    std::copy(r[g][i].begin(), r[g][i].begin() + static_cast<long>(keep), x);
+                    fft->forward();
+                    std::copy(X, X + bins, &spec_kept[g * bins]);
                 }
             }
             for (size_t f = 0; f < foci_; f++)
                 for (size_t g = 0; g < rows_; g++) {
-                    for (size_t k = 0; k < nfft; k++)
-                        prod[k] = std::conj(spec_kept[f][k]) * spec_full[g][k];
-                    fft.inv(out, prod);
+                    const std::complex<double> *kf = &spec_kept[f * bins], *fg = &spec_full[g * bins];
+                    for (size_t k = 0; k < bins; k++)
+                        X[k] = std::conj(kf[k]) * fg[k];
+                    fft->inverse();
                     float *c = &corr_[((i * foci_ + f) * rows_ + g) * lags_];
                     for (size_t l = 0; l < lags_; l++) {  // circular index of the lag (first_lag > -nfft)
                         const long lag = first_lag + static_cast<long>(l);
-                        c[l] = static_cast<float>(out[static_cast<size_t>(lag < 0 ? lag + static_cast<long>(nfft) : lag)]);
+                        c[l] = static_cast<float>(scale *
+                                                  x[static_cast<size_t>(lag < 0 ? lag + static_cast<long>(nfft) : lag)]);
                     }
                 }
         }
     }
+    if (!failure.empty())
+        throw std::runtime_error("contrast model: " + failure);
 }
 
 void ContrastModel::State::add(size_t site, float sign)
@@ -234,12 +254,14 @@ namespace {
 // Evaluator concept: double set(const std::vector<size_t>&) evaluates a new
 // set; double swap(j, site) evaluates the set with exciter j moved to site
 // and keeps it; void undo(j, old_site) reverts the last swap.
+// One restart: its own random stream (the seed and the restart's index), so
+// the restarts run in any order and on any number of threads with one result.
 template <class Evaluator>
-SearchResult anneal(const std::vector<Point> &sites, const SearchOptions &o, Evaluator &ev)
+SearchResult anneal_restart(const std::vector<Point> &sites, const SearchOptions &o, unsigned restart,
+                            Evaluator &ev)
 {
-    if (o.count == 0)
-        throw std::invalid_argument("exciter count must be >= 1");
-    std::mt19937_64 rng(o.seed);
+    std::seed_seq seq{std::uint32_t(o.seed), std::uint32_t(o.seed >> 32), std::uint32_t(restart)};
+    std::mt19937_64 rng(seq);
     auto uniform = [&rng] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
     auto spaced_ok = [&](const std::vector<size_t> &set, size_t skip, size_t candidate) {
         for (size_t j = 0; j < set.size(); j++)
@@ -249,66 +271,95 @@ SearchResult anneal(const std::vector<Point> &sites, const SearchOptions &o, Eva
     };
     SearchResult best;
     best.objective = -std::numeric_limits<double>::infinity();
-    for (unsigned restart = 0; restart < o.restarts; restart++) {
-        // Random start: greedy random insertion with the spacing constraint.
-        std::vector<size_t> set;
-        if (restart == 0 && o.first_start.size() == o.count) {
-            for (size_t c : o.first_start)
-                if (c < sites.size() && std::find(set.begin(), set.end(), c) == set.end() &&
-                    spaced_ok(set, set.size(), c))
-                    set.push_back(c);
-            if (set.size() != o.count)
-                set.clear();  // not a valid start: random like the others
-        }
-        for (unsigned tries = 0; set.size() < o.count && tries < 100 * o.count * (sites.size() + 1); tries++) {
-            const size_t c = rng() % sites.size();
-            if (std::find(set.begin(), set.end(), c) == set.end() && spaced_ok(set, set.size(), c))
+    // Random start: greedy random insertion with the spacing constraint.
+    std::vector<size_t> set;
+    if (restart == 0 && o.first_start.size() == o.count) {
+        for (size_t c : o.first_start)
+            if (c < sites.size() && std::find(set.begin(), set.end(), c) == set.end() && spaced_ok(set, set.size(), c))
                 set.push_back(c);
-        }
-        if (set.size() < o.count)
-            throw std::invalid_argument("the border band cannot hold " + std::to_string(o.count) +
-                                        " exciters at least " + std::to_string(o.min_spacing_m) + " m apart");
-        double cur = ev.set(set);
-        best.evaluations++;
-        if (cur > best.objective) {
-            best.objective = cur;
-            best.chosen = set;
-        }
-        const double t0 = o.temperature_start, t1 = o.temperature_end;
-        for (unsigned it = 0; it < o.iterations; it++) {
-            const double temp = t0 * std::pow(t1 / t0, static_cast<double>(it) / std::max(1u, o.iterations - 1));
-            const size_t j = rng() % set.size();
-            size_t cand;
-            if (uniform() < 0.75) {  // local move
-                const Point c = sites[set[j]];
-                const double ang = 2 * std::numbers::pi * uniform(), rad = o.local_radius_m * uniform();
-                const Point target{c.x_m + rad * std::cos(ang), c.y_m + rad * std::sin(ang)};
-                cand = set[j];
-                double bd = std::numeric_limits<double>::infinity();
-                for (size_t i = 0; i < sites.size(); i++)
-                    if (dist(sites[i], target) < bd) {
-                        bd = dist(sites[i], target);
-                        cand = i;
-                    }
-            } else {
-                cand = rng() % sites.size();
-            }
-            if (cand == set[j] || std::find(set.begin(), set.end(), cand) != set.end() || !spaced_ok(set, j, cand))
-                continue;
-            const size_t old = set[j];
-            set[j] = cand;
-            const double next = ev.swap(j, old, cand);
-            best.evaluations++;
-            if (next >= cur || uniform() < std::exp((next - cur) / temp)) {
-                cur = next;
-                if (cur > best.objective) {
-                    best.objective = cur;
-                    best.chosen = set;
+        if (set.size() != o.count)
+            set.clear();  // not a valid start: random like the others
+    }
+    for (unsigned tries = 0; set.size() < o.count && tries < 100 * o.count * (sites.size() + 1); tries++) {
+        const size_t c = rng() % sites.size();
+        if (std::find(set.begin(), set.end(), c) == set.end() && spaced_ok(set, set.size(), c))
+            set.push_back(c);
+    }
+    if (set.size() < o.count)
+        throw std::invalid_argument("the border band cannot hold " + std::to_string(o.count) + " exciters at least " +
+                                    std::to_string(o.min_spacing_m) + " m apart");
+    double cur = ev.set(set);
+    best.evaluations++;
+    best.objective = cur;
+    best.chosen = set;
+    const double t0 = o.temperature_start, t1 = o.temperature_end;
+    for (unsigned it = 0; it < o.iterations; it++) {
+        const double temp = t0 * std::pow(t1 / t0, static_cast<double>(it) / std::max(1u, o.iterations - 1));
+        const size_t j = rng() % set.size();
+        size_t cand;
+        if (uniform() < 0.75) {  // local move
+            const Point c = sites[set[j]];
+            const double ang = 2 * std::numbers::pi * uniform(), rad = o.local_radius_m * uniform();
+            const Point target{c.x_m + rad * std::cos(ang), c.y_m + rad * std::sin(ang)};
+            cand = set[j];
+            double bd = std::numeric_limits<double>::infinity();
+            for (size_t i = 0; i < sites.size(); i++)
+                if (const double di = dist(sites[i], target); di < bd) {
+                    bd = di;
+                    cand = i;
                 }
-            } else {
-                ev.undo(j, old, cand);
-                set[j] = old;
+        } else {
+            cand = rng() % sites.size();
+        }
+        if (cand == set[j] || std::find(set.begin(), set.end(), cand) != set.end() || !spaced_ok(set, j, cand))
+            continue;
+        const size_t old = set[j];
+        set[j] = cand;
+        const double next = ev.swap(j, old, cand);
+        best.evaluations++;
+        if (next >= cur || uniform() < std::exp((next - cur) / temp)) {
+            cur = next;
+            if (cur > best.objective) {
+                best.objective = cur;
+                best.chosen = set;
             }
+        } else {
+            ev.undo(j, old, cand);
+            set[j] = old;
+        }
+    }
+    return best;
+}
+
+// The restarts in parallel, each with its own evaluator (a copy of `ev`);
+// the best objective wins, the lowest restart on a tie.
+template <class Evaluator>
+SearchResult anneal(const std::vector<Point> &sites, const SearchOptions &o, const Evaluator &ev)
+{
+    if (o.count == 0)
+        throw std::invalid_argument("exciter count must be >= 1");
+    std::vector<SearchResult> results(o.restarts);
+    std::string failure;
+#pragma omp parallel for schedule(dynamic)
+    for (unsigned r = 0; r < o.restarts; r++) {
+        try {
+            Evaluator own = ev;
+            results[r] = anneal_restart(sites, o, r, own);
+        } catch (const std::exception &ex) {
+#pragma omp critical
+            if (failure.empty())
+                failure = ex.what();
+        }
+    }
+    if (!failure.empty())
+        throw std::invalid_argument(failure);
+    SearchResult best;
+    best.objective = -std::numeric_limits<double>::infinity();
+    for (const SearchResult &r : results) {
+        best.evaluations += r.evaluations;
+        if (r.objective > best.objective) {
+            best.objective = r.objective;
+            best.chosen = r.chosen;
         }
     }
     return best;
@@ -348,8 +399,7 @@ struct ContrastEvaluator {
 
 SearchResult search_placement(const std::vector<Point> &sites, const SearchOptions &o, const Objective &objective)
 {
-    FunctionEvaluator ev{objective, {}};
-    return anneal(sites, o, ev);
+    return anneal(sites, o, FunctionEvaluator{objective, {}});
 }
 
 SearchResult search_placement_contrast(const std::vector<Point> &sites, const SearchOptions &o,
@@ -357,8 +407,7 @@ SearchResult search_placement_contrast(const std::vector<Point> &sites, const Se
 {
     if (model.sites() != sites.size())
         throw std::invalid_argument("contrast model and candidate sites differ in count");
-    ContrastEvaluator ev{model};
-    return anneal(sites, o, ev);
+    return anneal(sites, o, ContrastEvaluator{model});
 }
 
 }  // namespace calib::pipeline

@@ -122,8 +122,11 @@ struct SearchResult {
 };
 
 // Maximizes objective(chosen) over sets of `count` sites at least
-// min_spacing apart. Deterministic for a seed. Throws std::invalid_argument
-// when the band cannot hold `count` exciters at that spacing.
+// min_spacing apart. The restarts run in parallel (OpenMP), each with its own
+// random stream drawn from the seed and its index: the result depends on the
+// seed, not on the thread count. `objective` is called from several threads
+// at once. Throws std::invalid_argument when the band cannot hold `count`
+// exciters at that spacing.
 using Objective = std::function<double(const std::vector<size_t> &chosen)>;
 SearchResult search_placement(const std::vector<Point> &sites, const SearchOptions &options, const Objective &objective);
 

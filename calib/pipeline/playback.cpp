@@ -1,4 +1,5 @@
 #include "pipeline/playback.h"
+#include "pipeline/real_fft.h"
 
 #include <fftw3.h>
 
@@ -10,8 +11,6 @@
 namespace calib::pipeline {
 
 namespace {
-
-std::mutex planner_mutex;  // FFTW's planner is global and not thread-safe
 
 // Aligned FFTW buffers, freed on scope exit.
 struct RealBuffer {
@@ -43,7 +42,7 @@ struct Playback::Plans {
     fftwf_plan forward = nullptr, inverse = nullptr;
     ~Plans()
     {
-        std::lock_guard<std::mutex> lock(planner_mutex);
+        std::lock_guard<std::mutex> lock(fftw_planner_mutex());
         if (forward)
             fftwf_destroy_plan(forward);
         if (inverse)
@@ -68,7 +67,7 @@ Playback::Playback(const TransferMatrix &H, std::vector<std::size_t> points, std
     RealBuffer x(nfft_);
     ComplexBuffer X(bins_);
     {
-        std::lock_guard<std::mutex> lock(planner_mutex);
+        std::lock_guard<std::mutex> lock(fftw_planner_mutex());
         plans_->forward = fftwf_plan_dft_r2c_1d(int(nfft_), x.p, X.p, FFTW_ESTIMATE);
         plans_->inverse = fftwf_plan_dft_c2r_1d(int(nfft_), X.p, x.p, FFTW_ESTIMATE);
     }

@@ -112,11 +112,9 @@ std::vector<std::vector<double>> site_responses_at(const SiteRecording &rec, dou
 {
     // As resample() sizes a full-rate trace of `steps` samples.
     const auto len = static_cast<std::size_t>(std::llround(double(steps) * rate_hz / (1.0 / k)));
-    std::vector<std::vector<double>> out(rec.traces.size());
-    for (std::size_t i = 0; i < rec.traces.size(); i++) {
-        out[i] = resample(rec.traces[i], rec.rate_hz, rate_hz);
-        out[i].resize(len, 0.0);
-    }
+    std::vector<std::vector<double>> out = resample_all(rec.traces, rec.rate_hz, rate_hz);
+    for (std::vector<double> &o : out)
+        o.resize(len, 0.0);
     return out;
 }
 

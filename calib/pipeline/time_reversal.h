@@ -51,5 +51,9 @@ void requantize(DriveSignals &d, double level, const TimeReversalOptions &option
 
 // Band-limited resampling of one signal with soxr (high quality, linear phase).
 std::vector<double> resample(const std::vector<double> &x, double in_rate_hz, double out_rate_hz);
+// The same for signals of one length, through one filter design: each output
+// equals resample() of its input.
+std::vector<std::vector<double>> resample_all(const std::vector<std::vector<double>> &x, double in_rate_hz,
+                                              double out_rate_hz);
 
 }  // namespace calib::pipeline

@@ -4,6 +4,7 @@
 #include "pipeline/placement.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
 #include <random>
@@ -111,6 +112,47 @@ TEST(Placement, AnnealerFindsTheBruteForceOptimumAndIsDeterministic)
     EXPECT_NEAR(objective(r1.chosen), r1.objective, 1e-15);
     SearchResult r2 = search_placement(sites, o, objective);
     EXPECT_EQ(r1.chosen, r2.chosen);
+}
+
+TEST(Placement, SearchResultDoesNotDependOnTheThreadCount)
+{
+    // Restarts run in parallel with their own streams: one thread and four
+    // threads must choose the same set with the same objective and count the
+    // same evaluations; another seed explores other sets.
+    std::vector<Point> sites;
+    for (int i = 0; i < 60; i++)
+        sites.push_back({0.01 * i, 0.5 + 0.3 * std::sin(1.7 * i)});
+    auto objective = [&](const std::vector<size_t> &c) {
+        double s = 0;
+        for (size_t a : c)
+            for (size_t b : c)
+                s += std::sin(3.1 * sites[a].x_m * sites[b].y_m + 0.7 * double(a * b % 7));
+        return s;
+    };
+    SearchOptions o;
+    o.count = 4;
+    o.min_spacing_m = 0.0;
+    o.restarts = 6;
+    o.iterations = 300;
+    o.local_radius_m = 0.1;
+    const int threads = omp_get_max_threads();
+    omp_set_num_threads(1);
+    const SearchResult one = search_placement(sites, o, objective);
+    omp_set_num_threads(4);
+    const SearchResult four = search_placement(sites, o, objective);
+    omp_set_num_threads(threads);
+    EXPECT_EQ(one.chosen, four.chosen);
+    EXPECT_EQ(one.objective, four.objective);
+    EXPECT_EQ(one.evaluations, four.evaluations);
+    EXPECT_EQ(objective(one.chosen), one.objective);
+    std::vector<unsigned> evaluations;
+    for (uint64_t seed : {2u, 3u, 4u}) {
+        o.seed = seed;
+        evaluations.push_back(search_placement(sites, o, objective).evaluations);
+    }
+    EXPECT_FALSE(evaluations[0] == one.evaluations && evaluations[1] == one.evaluations &&
+                 evaluations[2] == one.evaluations)
+        << "the seed changes nothing";
 }
 
 TEST(Placement, SpacingIsRespectedAndImpossibleBandsRefused)
