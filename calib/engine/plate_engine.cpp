@@ -184,11 +184,10 @@ void PlateEngine<T>::step_impl()
     const int i0 = 2, i1 = nx_ - 1, j0 = 2, j1 = ny_ - 1;
     if (i1 > i0 && j1 > j0)
         bulk_update_threads<T, Lossy>(u_, inc_, inc_before_, stride_, i0, i1, j0, j1, bulk_, bulk_threads_, scratch_);
-    for (std::size_t r = 0; r < band_target_.size(); ++r) {
-        const std::ptrdiff_t self = band_target_[r];
-        const T v = T(band_next_[r]);
-        inc_before_[self] = v;
-        u_[self] += v;
+    for (const BandRow &row : band_rows_) {
+        const T v = T(band_next_[row.slot]);
+        inc_before_[row.target] = v;
+        u_[row.target] += v;
     }
     std::swap(inc_, inc_before_);
     for (int c = 0; c < rigid_count_; ++c)

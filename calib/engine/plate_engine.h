@@ -119,21 +119,25 @@ private:
     // The band sums in double (a row has up to ~20 terms; the band is a thin
     // fraction of the grid), so its round-off is one rounding per node and
     // step, as in the bulk.
-    // Stored grouped by length (plate_engine_edge.cpp).
+    // Stored in SIMD blocks (plate_engine_edge.cpp, edge_kernels.h).
     static constexpr int max_strain_nodes = 4;  // PlateOperator::Stencil
     struct StrainSet {
-        // Strains [length_end[L-1], length_end[L]) have L nodes.
-        std::array<std::uint32_t, max_strain_nodes + 1> length_end{};
-        std::vector<std::ptrdiff_t> offset;
-        std::vector<T> weight;  // small integers, exact in T
-        std::vector<double> value;  // scratch, one per strain
+        // blocks[L-1] blocks of strains of L nodes, [block][node][lane].
+        std::array<std::size_t, max_strain_nodes> blocks{};
+        std::vector<std::int32_t> offset;
+        std::vector<T> weight;  // small integers, exact in T; 0 in a padded lane
+        std::vector<double> value;  // scratch, one per (padded) strain
     };
-    struct RowTerms {  // the rows' terms, row after row
+    struct RowTerms {  // [block][term][lane], group after group
         std::vector<std::uint32_t> strain;
         std::vector<T> coef;
     };
-    struct RowGroup {  // consecutive rows with the same term counts
-        std::uint32_t rows = 0, r_terms = 0, s_terms = 0;
+    struct RowGroup {  // consecutive blocks of rows with the same term counts
+        std::uint32_t blocks = 0, r_terms = 0, s_terms = 0;
+    };
+    struct BandRow {
+        std::uint32_t slot;  // in band_next_
+        std::ptrdiff_t target;
     };
     struct PointTap {
         std::vector<std::ptrdiff_t> offset;
@@ -167,8 +171,9 @@ private:
     StrainSet strains_r_, strains_s_;
     RowTerms terms_r_, terms_s_;
     std::vector<RowGroup> row_groups_;
-    std::vector<std::ptrdiff_t> band_target_;  // field offset of each band row
-    std::vector<double> band_next_;  // d^{n+1} of the band, held while the bulk reads d^n
+    std::vector<std::int32_t> band_target_;  // field offset of each (padded) row
+    std::vector<BandRow> band_rows_;  // the real rows
+    std::vector<double> band_next_;  // d^{n+1} of the (padded) band, held while the bulk reads d^n
     // Rigid-body modes r_c = R b_c (R: the fields 1, i, j on the unknowns) that
     // K (and Gm, with sigma1 loss) annihilate; the momenta p_c = r_c^T M d the
     // scheme conserves exactly (times g per step with sigma0), what sources

@@ -2,7 +2,12 @@
 // built once, applied every step before the bulk.
 #include "engine/plate_engine.h"
 
+#include "engine/edge_kernels.h"
+
 #include <algorithm>
+#include <array>
+#include <limits>
+#include <stdexcept>
 #include <map>
 #include <utility>
 #include <vector>
@@ -19,11 +24,12 @@ namespace calib::engine {
 // against a tilt: a free plate's rotation modes then get eigenvalues ~ -1e-10
 // of M^-1 K k^2 and grow exponentially (docs/engine.md).
 //
-// Layout: the strains are numbered by their length (1 to 4 nodes) and the rows
-// grouped by their term counts, so every inner loop runs a trip count that is
-// fixed across its group. A strain over fixed nodes only (always zero) is
-// left out of the rows. Within a row and a strain the terms keep the order of
-// the operator's stencils, so the sums are the ones the unordered form makes.
+// Layout (edge_kernels.h): the strains are grouped by their length (1 to 4
+// nodes) and the rows by their term counts, each group in blocks of
+// edge_lanes that the kernels run as SIMD lanes, with a trip count fixed over
+// the group. A strain over fixed nodes only (always zero) is left out of the
+// rows. Within a row and a strain the terms keep the order of the operator's
+// stencils.
 template <typename T>
 void PlateEngine<T>::build_edge_rows()
 {
@@ -79,107 +85,123 @@ void PlateEngine<T>::build_edge_rows()
     std::stable_sort(band.begin(), band.end(), [](const Row &a, const Row &b) {
         return std::pair{a.r.size(), a.s.size()} < std::pair{b.r.size(), b.s.size()};
     });
+    auto offset32 = [](std::ptrdiff_t o) {
+        if (o < 0 || o > std::ptrdiff_t(std::numeric_limits<std::int32_t>::max()))
+            throw std::length_error("PlateEngine: field offsets beyond 32 bits");
+        return std::int32_t(o);
+    };
+    constexpr std::size_t L = edge_lanes;
 
-    band_target_.clear();
-    row_groups_.clear();
-    for (const Row &row : band) {
-        band_target_.push_back(row.target);
-        const auto r_terms = std::uint32_t(row.r.size()), s_terms = std::uint32_t(row.s.size());
-        if (row_groups_.empty() || row_groups_.back().r_terms != r_terms || row_groups_.back().s_terms != s_terms)
-            row_groups_.push_back({0, r_terms, s_terms});
-        row_groups_.back().rows++;
-    }
-    band_next_.assign(band.size(), 0.0);
-
-    // Each set keeps the strains its rows read, numbered by length.
-    auto build = [&](StrainSet &set, RowTerms &terms, Terms Row::*member) {
+    // Each set keeps the strains its rows read, numbered by length and laid
+    // out in blocks (a padded lane: weight 0 on a node of the block).
+    auto build_strains = [&](StrainSet &set, Terms Row::*member) {
         set = {};
-        terms = {};
-        std::vector<std::size_t> used;
         std::map<std::size_t, std::uint32_t> index;
+        std::array<std::vector<std::size_t>, max_strain_nodes> by_length;
         for (const Row &row : band)
             for (auto [strain, c] : row.*member)
                 if (index.try_emplace(strain, 0).second)
-                    used.push_back(strain);
-        std::stable_sort(used.begin(), used.end(),
-                         [&](std::size_t a, std::size_t b) { return stencils[a].count < stencils[b].count; });
-        for (std::size_t n = 0; n < used.size(); ++n) {
-            const PlateOperator::Stencil &st = stencils[used[n]];
-            index[used[n]] = std::uint32_t(n);
-            for (int t = 0; t < st.count; ++t) {
-                set.offset.push_back(offset_of(st.node[std::size_t(t)]));
-                set.weight.push_back(T(st.weight[std::size_t(t)]));
-            }
-            for (int len = st.count; len <= max_strain_nodes; ++len)
-                set.length_end[std::size_t(len)] = std::uint32_t(n + 1);
+                    by_length[std::size_t(stencils[strain].count - 1)].push_back(strain);
+        std::uint32_t base = 0;
+        for (int len = 1; len <= max_strain_nodes; ++len) {
+            const std::vector<std::size_t> &group = by_length[std::size_t(len - 1)];
+            const std::size_t blocks = (group.size() + L - 1) / L;
+            set.blocks[std::size_t(len - 1)] = blocks;
+            for (std::size_t k = 0; k < group.size(); ++k)
+                index[group[k]] = base + std::uint32_t(k);
+            for (std::size_t blk = 0; blk < blocks; ++blk)
+                for (int t = 0; t < len; ++t)
+                    for (std::size_t l = 0; l < L; ++l) {
+                        const std::size_t k = blk * L + l;
+                        const PlateOperator::Stencil &st = stencils[group[k < group.size() ? k : 0]];
+                        set.offset.push_back(offset32(offset_of(st.node[std::size_t(t)])));
+                        set.weight.push_back(k < group.size() ? T(st.weight[std::size_t(t)]) : T(0));
+                    }
+            base += std::uint32_t(blocks * L);
         }
-        set.value.assign(used.size(), 0.0);
-        for (const Row &row : band)
-            for (auto [strain, c] : row.*member) {
-                terms.strain.push_back(index[strain]);
-                terms.coef.push_back(T(c));
-            }
+        set.value.assign(base, 0.0);
+        return index;
     };
-    build(strains_r_, terms_r_, &Row::r);
-    build(strains_s_, terms_s_, &Row::s);
-}
+    const auto index_r = build_strains(strains_r_, &Row::r);
+    const auto index_s = build_strains(strains_s_, &Row::s);
 
-namespace {
-
-// value[s] = sum of weight * field over the nodes of strain s, in double,
-// group by group (a strain of L nodes in the group L).
-template <typename T, int L>
-void strain_group(std::uint32_t count, const std::ptrdiff_t *&offset, const T *&weight, double *&value,
-                  const T *field)
-{
-    for (std::uint32_t s = 0; s < count; ++s, offset += L, weight += L) {
-        double v = 0;
-        for (int t = 0; t < L; ++t)
-            v += double(weight[t]) * double(field[offset[t]]);
-        *value++ = v;
+    // Rows: groups of equal term counts, each padded to whole blocks with
+    // rows of zero terms on the group's first target (computed, never applied).
+    terms_r_ = {};
+    terms_s_ = {};
+    row_groups_.clear();
+    band_target_.clear();
+    band_rows_.clear();
+    for (std::size_t first = 0; first < band.size();) {
+        std::size_t end = first;
+        while (end < band.size() && band[end].r.size() == band[first].r.size() &&
+               band[end].s.size() == band[first].s.size())
+            ++end;
+        const std::size_t blocks = (end - first + L - 1) / L;
+        const auto r_terms = std::uint32_t(band[first].r.size()), s_terms = std::uint32_t(band[first].s.size());
+        row_groups_.push_back({std::uint32_t(blocks), r_terms, s_terms});
+        auto lay = [&](std::size_t blk, RowTerms &terms, Terms Row::*member, std::uint32_t count,
+                       const std::map<std::size_t, std::uint32_t> &index) {
+            for (std::uint32_t e = 0; e < count; ++e)
+                for (std::size_t l = 0; l < L; ++l) {
+                    const std::size_t n = first + blk * L + l;
+                    if (n < end) {
+                        const auto [strain, c] = (band[n].*member)[e];
+                        terms.strain.push_back(index.at(strain));
+                        terms.coef.push_back(T(c));
+                    } else {
+                        terms.strain.push_back(0);
+                        terms.coef.push_back(T(0));
+                    }
+                }
+        };
+        for (std::size_t blk = 0; blk < blocks; ++blk) {
+            for (std::size_t l = 0; l < L; ++l) {
+                const std::size_t n = first + blk * L + l;
+                const bool real = n < end;
+                if (real)
+                    band_rows_.push_back({std::uint32_t(band_target_.size()), band[n].target});
+                band_target_.push_back(offset32(band[real ? n : first].target));
+            }
+            lay(blk, terms_r_, &Row::r, r_terms, index_r);
+            lay(blk, terms_s_, &Row::s, s_terms, index_s);
+        }
+        first = end;
     }
+    band_next_.assign(band_target_.size(), 0.0);
 }
-
-}  // namespace
 
 template <typename T>
 template <bool Lossy>
 void PlateEngine<T>::edge_band_update()
 {
-    static_assert(max_strain_nodes == 4, "strain_group is unrolled for 1 to 4 nodes");
+    constexpr std::size_t L = edge_lanes;
     auto strains = [](StrainSet &set, const T *field) {
-        const std::ptrdiff_t *offset = set.offset.data();
+        const std::int32_t *offset = set.offset.data();
         const T *weight = set.weight.data();
         double *value = set.value.data();
-        const auto &end = set.length_end;
-        strain_group<T, 1>(end[1] - end[0], offset, weight, value, field);
-        strain_group<T, 2>(end[2] - end[1], offset, weight, value, field);
-        strain_group<T, 3>(end[3] - end[2], offset, weight, value, field);
-        strain_group<T, 4>(end[4] - end[3], offset, weight, value, field);
+        for (int len = 1; len <= max_strain_nodes; ++len) {
+            const std::size_t blocks = set.blocks[std::size_t(len - 1)];
+            edge_strains<T>(blocks, len, offset, weight, field, value);
+            offset += blocks * std::size_t(len) * L;
+            weight += blocks * std::size_t(len) * L;
+            value += blocks * L;
+        }
     };
     strains(strains_r_, u_);
     if constexpr (Lossy)
         strains(strains_s_, inc_);
     const double g = double(bulk_.g);
-    const std::uint32_t *r_strain = terms_r_.strain.data(), *s_strain = terms_s_.strain.data();
-    const T *r_coef = terms_r_.coef.data(), *s_coef = terms_s_.coef.data();
-    const double *r_value = strains_r_.value.data(), *s_value = strains_s_.value.data();
-    std::size_t r = 0;
+    std::size_t r_at = 0, s_at = 0, row = 0;
     for (const RowGroup &group : row_groups_) {
-        for (std::uint32_t n = 0; n < group.rows; ++n, ++r) {
-            double v = g * double(inc_[band_target_[r]]);
-            for (std::uint32_t e = 0; e < group.r_terms; ++e)
-                v -= double(r_coef[e]) * r_value[r_strain[e]];
-            r_coef += group.r_terms;
-            r_strain += group.r_terms;
-            if constexpr (Lossy) {
-                for (std::uint32_t e = 0; e < group.s_terms; ++e)
-                    v -= double(s_coef[e]) * s_value[s_strain[e]];
-                s_coef += group.s_terms;
-                s_strain += group.s_terms;
-            }
-            band_next_[r] = v;
-        }
+        const EdgeRowTerms r{group.r_terms, terms_r_.strain.data() + r_at, terms_r_.coef.data() + r_at,
+                             strains_r_.value.data()};
+        const EdgeRowTerms s{Lossy ? group.s_terms : 0, terms_s_.strain.data() + s_at, terms_s_.coef.data() + s_at,
+                             strains_s_.value.data()};
+        edge_rows<T>(group.blocks, g, band_target_.data() + row, inc_, r, s, band_next_.data() + row);
+        r_at += std::size_t(group.blocks) * group.r_terms * L;
+        s_at += std::size_t(group.blocks) * group.s_terms * L;
+        row += std::size_t(group.blocks) * L;
     }
 }
 

@@ -104,9 +104,6 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
 // Run-time ISA dispatch: the same body compiled for AVX-512 (with 512-bit
 // vectors: GCC otherwise prefers 256-bit ones on x86-64-v4), AVX2+FMA and the
 // baseline, chosen once from the CPU. Sanitizer builds keep the baseline only.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(HAPTIC_NO_TARGET_CLONES)
-#define HAPTIC_DISPATCH 1
-#endif
 
 template <typename T>
 using BulkFn = void (*)(T *, const T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, T *,
@@ -126,9 +123,7 @@ HAPTIC_BULK_VARIANT(bulk_avx512, __attribute__((target("arch=x86-64-v4,prefer-ve
 HAPTIC_BULK_VARIANT(bulk_avx2, __attribute__((target("arch=x86-64-v3"))))
 #endif
 
-namespace {
-
-int isa_level()
+int kernel_isa_level()
 {
 #ifdef HAPTIC_DISPATCH
     __builtin_cpu_init();
@@ -140,11 +135,13 @@ int isa_level()
     return 0;
 }
 
+namespace {
+
 template <typename T, bool Lossy>
 BulkFn<T> select_bulk()
 {
 #ifdef HAPTIC_DISPATCH
-    switch (isa_level()) {
+    switch (kernel_isa_level()) {
     case 2: return bulk_avx512<T, Lossy>;
     case 1: return bulk_avx2<T, Lossy>;
     default: break;
@@ -198,7 +195,7 @@ HAPTIC_BULK_INSTANCES(double, true)
 
 const char *bulk_update_isa()
 {
-    switch (isa_level()) {
+    switch (kernel_isa_level()) {
     case 2: return "x86-64-v4 (AVX-512, 512-bit vectors)";
     case 1: return "x86-64-v3 (AVX2+FMA)";
     default: return "baseline";

@@ -60,5 +60,13 @@ void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int
 
 // Which instruction set the dispatcher picked (for the benchmark's report).
 const char *bulk_update_isa();
+// Run-time ISA dispatch of the kernels (this header's and edge_kernels.h's):
+// GCC on x86-64, except sanitizer builds (HAPTIC_NO_TARGET_CLONES).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(HAPTIC_NO_TARGET_CLONES)
+#define HAPTIC_DISPATCH 1
+#endif
+// The widest kernel set this CPU runs: 2 AVX-512, 1 AVX2+FMA, 0 baseline
+// (always 0 where the build has no run-time dispatch).
+int kernel_isa_level();
 
 }  // namespace calib::engine
