@@ -96,7 +96,6 @@ Simulation::Simulation(std::shared_ptr<const PlateOperator> op, const Simulation
         engine_ = std::make_unique<mindlin::MindlinEngine>(std::move(m), k_);
         return;
     }
-    SerialEigen serial;  // for the bound, found here on first use
     if (options_.time_step_s > 0) {
         k_ = options_.time_step_s;
         if (!options_.engine.skip_stability_check)

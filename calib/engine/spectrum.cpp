@@ -27,6 +27,7 @@ double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::Vec
     const Eigen::Index n = a.rows();
     if (n == 0)
         return 0.0;
+    SerialEigen serial;  // every caller: a product per Lanczos step is too short for a team
     const Eigen::VectorXd s = m_diag.cwiseSqrt().cwiseInverse();
     if (n <= dense_limit) {
         Eigen::MatrixXd d = s.asDiagonal() * Eigen::MatrixXd(a) * s.asDiagonal();

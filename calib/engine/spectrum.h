@@ -11,10 +11,13 @@ namespace calib::engine {
 
 using SparseRowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
-// Limits OpenMP to this thread while an operator's stability bound is found:
-// Lanczos' sparse products go through Eigen, which forks a team per product;
-// on the loaded 2-core machine that made a 130 000-unknown Mindlin bound take
-// 3 s instead of 0.2 s (and the Kirchhoff one 1 s instead of 0.05 s).
+// Limits OpenMP to this thread while an operator's stability bound is found
+// (largest_generalized_eigenvalue holds one, for every caller): Lanczos'
+// sparse products go through Eigen, which forks a team per product; on the
+// loaded 2-core machine that made a 130 000-unknown Mindlin bound take 3 s
+// instead of 0.2 s (and the Kirchhoff one 1 s instead of 0.05 s), and the
+// idle team spinning between products took half the CPU of a tolerance
+// study, whose every perturbed plate finds its bound.
 // omp_set_num_threads changes only the calling thread's setting.
 class SerialEigen {
 public:

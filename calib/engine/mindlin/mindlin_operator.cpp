@@ -148,7 +148,6 @@ MindlinOperator::MindlinOperator(const PlateParams &params, const Grid &grid, ph
     stiffness_.resize(n, n);
     stiffness_.setFromTriplets(trip.begin(), trip.end());
     stiffness_.prune(0.0);
-    SerialEigen serial;
     lambda_ = largest_generalized_eigenvalue(stiffness_, mass_);
 }
 
