@@ -13,6 +13,7 @@
 #include "scene/calibration_input.h"
 
 #include <algorithm>
+#include <numbers>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -128,6 +129,9 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
     res.exciters = placed.exciters;
     res.placement_s = since(t0);
     res.crossing_s = pipeline::crossing_time_s(in, res.exciters);
+    res.ceiling = pipeline::ideal_focus_ceiling(
+        in.pulse, [&](double f) { return 2 * std::numbers::pi / pipeline::a0_wavelength_m(*in.plate, f); },
+        pipeline::a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2);
 
     // H long enough for the longest lead time and for the scene's own window.
     t0 = Clock::now();

@@ -7,6 +7,7 @@
 // active area at all times (pipeline/verification.h). docs/REPRODUCTION.md
 // holds the Fig. 7 results.
 #pragma once
+#include "pipeline/focus_ceiling.h"
 #include "pipeline/placement.h"
 #include "pipeline/spec.h"
 
@@ -53,6 +54,10 @@ struct LatencyResult {
     std::string scene_file, scene_name;
     double threshold_m = 0;
     double crossing_s = 0;               // the lead time's lower bound for these exciters
+    // An ideal isotropic focus of the scene's pulse on its plate, on the same
+    // criterion (pipeline/focus_ceiling.h): what no layout of exciters beats
+    // by forming a round focus.
+    pipeline::FocusCeiling ceiling;
     std::vector<pipeline::Point> exciters;
     double transfer_s = 0, placement_s = 0;
     std::vector<LatencyRow> rows;
