@@ -1,4 +1,5 @@
 #include "pipeline/calibrate.h"
+#include "pipeline/radiation.h"
 
 #include "pipeline/calibrate_stages.h"
 #include "pipeline/first_failure.h"
@@ -241,6 +242,16 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
     res.verification = lti ? verify_signals_with(in, H, quantized(), in.calibration.output_rate_hz, progress)
                            : verify_signals_forward(in, res.exciters, quantized(), in.calibration.output_rate_hz,
                                                     progress, true);
+    // What a listener hears of each focus (pipeline/radiation.h): from H's lattice.
+    if (lti && H.lattice.size() > 0) {
+        const auto t1 = Clock::now();
+        const std::vector<RadiatedSound> sound = radiated_sounds(in, H, quantized(), in.calibration.output_rate_hz);
+        for (size_t f = 0; f < res.verification.foci.size() && f < sound.size(); f++) {
+            res.verification.foci[f].sound_exposure_dba = sound[f].exposure_level_dba;
+            res.verification.foci[f].sound = true;
+        }
+        res.times.sound_s = seconds_since(t1);
+    }
     res.times.verification_s = seconds_since(t0);
 
     // 6. The table over the scene's tolerance box (pipeline/robust.h).

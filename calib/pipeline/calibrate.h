@@ -86,6 +86,11 @@ struct FocusMetrics {
     bool others_below_threshold = false;
     bool whole_area_below_threshold = false;  // nowhere beyond lambda/2 reaches the threshold
     bool whole_area = false;        // the whole-area figures were measured
+    // The stored signals' sound on axis 0.5 m above the plate centre (baffled
+    // plate, pipeline/radiation.h): A-weighted exposure level L_AE (dB re
+    // 20 uPa^2 s); measured with the whole-area figures (H with its lattice).
+    double sound_exposure_dba = 0;
+    bool sound = false;
 };
 
 struct Verification {
@@ -114,6 +119,7 @@ struct Verification {
 
 struct StageTimes {
     double simulation_s = 0, search_s = 0, transfer_s = 0, signals_s = 0, verification_s = 0;
+    double sound_s = 0;  // the radiated sound of every focus (part of verification_s)
 };
 
 // Sizes of the transfer matrix a calibration used.

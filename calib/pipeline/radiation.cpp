@@ -2,6 +2,7 @@
 
 #include "pipeline/calibrate.h"
 #include "pipeline/playback.h"
+#include "pipeline/real_fft.h"
 #include "pipeline/verification.h"
 
 #include <unsupported/Eigen/FFT>
@@ -10,6 +11,9 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <stdexcept>
+#include <string>
+#include <memory>
 
 namespace calib::pipeline {
 
@@ -82,33 +86,124 @@ double a_weighted_exposure(const std::vector<double> &p, double R)
     return e / (double(N) * R);  // Parseval: sum p^2 / R = sum |P|^2 / (N R)
 }
 
-RadiatedSound radiated_sound(const CalibrationInput &in, const TransferMatrix &H, const std::vector<int16_t> &signals,
-                             double rate_hz, double distance_m)
+std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const TransferMatrix &H,
+                                           const std::vector<std::vector<int16_t>> &signals, double rate_hz,
+                                           double distance_m)
 {
-    RadiatedSound out;
+    std::vector<RadiatedSound> out(signals.size());
     const std::size_t C = H.channels, L = H.lattice.size();
     if (L == 0 || signals.empty())
         return out;
-    const auto force = drive_forces(in, H, to_unit(signals), unsigned(C), rate_hz);
+    std::vector<std::vector<std::vector<double>>> force(signals.size());
     std::size_t drive = 1;
-    for (const auto &c : force)
-        drive = std::max(drive, c.size());
-    const std::size_t samples = drive + static_cast<std::size_t>(std::ceil(in.calibration.verify_tail_s * H.rate_hz));
-    std::vector<std::size_t> all(L);
-    for (std::size_t n = 0; n < L; n++)
-        all[n] = n;
-    Playback pb(H, all, drive, samples);
+    for (std::size_t f = 0; f < signals.size(); f++) {
+        if (signals[f].empty())
+            continue;
+        force[f] = drive_forces(in, H, to_unit(signals[f]), unsigned(C), rate_hz);
+        for (const auto &c : force[f])
+            drive = std::max(drive, c.size());
+    }
+    const double R = H.rate_hz;
+    const std::size_t samples = drive + static_cast<std::size_t>(std::ceil(in.calibration.verify_tail_s * R));
+    // The pressure is linear in the drive: P(omega) = sum_c F_c(omega) Q_c(omega),
+    // Q_c the Rayleigh integral of exciter c's responses over the lattice
+    // (-omega^2 H_cn e^{-i omega R_n / c0} dA / R_n, times rho0 / 2 pi), formed
+    // once for every focus. Linear, not circular: room for the drive, H and
+    // the largest propagation delay.
+    const std::size_t N = fft_friendly_size(drive + H.samples + 64);
+    const std::size_t bins = N / 2 + 1;
     const auto &pp = in.plate->params();
-    const std::vector<double> p = rayleigh_pressure(H.lattice, pb.field(force), H.rate_hz,
-                                                    {pp.size_x_m / 2, pp.size_y_m / 2}, distance_m, pb.output_samples());
-    for (double v : p)
-        out.peak_pa = std::max(out.peak_pa, std::abs(v));
-    const double energy = a_weighted_exposure(p, H.rate_hz);
+    const Point listener{pp.size_x_m / 2, pp.size_y_m / 2};
+    const double dA = H.lattice.spacing_m * H.lattice.spacing_m;
+    std::vector<std::complex<double>> Q(C * bins, 0.0);
+    std::vector<double> dist(L);
+    for (std::size_t n = 0; n < L; n++) {
+        const Point p = H.lattice.at(n);
+        dist[n] = std::sqrt((p.x_m - listener.x_m) * (p.x_m - listener.x_m) +
+                            (p.y_m - listener.y_m) * (p.y_m - listener.y_m) + distance_m * distance_m);
+    }
+    std::string failure;
+#pragma omp parallel
+    {
+        std::unique_ptr<RealFft> fft;
+        try {
+            fft = std::make_unique<RealFft>(N);
+        } catch (const std::exception &ex) {
+#pragma omp critical
+            failure = ex.what();
+        }
+#pragma omp for schedule(dynamic)
+        for (std::size_t c = 0; c < C; c++) {  // each exciter's Q_c on one thread
+            if (!fft)
+                continue;
+            std::complex<double> *q = &Q[c * bins];
+            for (std::size_t n = 0; n < L; n++) {
+                const float *h = H.response(c, n);
+                std::fill(fft->real(), fft->real() + N, 0.0);
+                std::copy(h, h + H.samples, fft->real());
+                fft->forward();
+                const double tau = dist[n] / sound_speed_m_s;
+                for (std::size_t k = 0; k < bins; k++) {
+                    const double om = 2 * std::numbers::pi * double(k) * R / double(N);
+                    q[k] += -om * om * fft->spectrum()[k] * std::polar(dA / dist[n], -om * tau);
+                }
+            }
+        }
+    }
+    // w = (1 / R) sum_j h[m - j] F[j] (playback.h), FFTW's inverse is N times.
+    const double scale = air_density_kg_m3 / (2 * std::numbers::pi) / (R * double(N));
     const double p0 = 20e-6;
-    out.exposure_level_dba = 10 * std::log10(std::max(energy, 1e-300) / (p0 * p0));
-    const double drive_s = double(signals.size() / C) / rate_hz;
-    out.laeq_dba = 10 * std::log10(std::max(energy / drive_s, 1e-300) / (p0 * p0));
+#pragma omp parallel
+    {
+        std::unique_ptr<RealFft> fft;
+        try {
+            fft = std::make_unique<RealFft>(N);
+        } catch (const std::exception &ex) {
+#pragma omp critical
+            failure = ex.what();
+        }
+        std::vector<std::complex<double>> acc(bins);
+#pragma omp for schedule(dynamic)
+        for (std::size_t f = 0; f < signals.size(); f++) {
+            if (!fft || force[f].empty())
+                continue;
+            std::fill(acc.begin(), acc.end(), std::complex<double>{});
+            for (std::size_t c = 0; c < C; c++) {
+                std::fill(fft->real(), fft->real() + N, 0.0);
+                std::copy(force[f][c].begin(), force[f][c].end(), fft->real());
+                fft->forward();
+                for (std::size_t k = 0; k < bins; k++)
+                    acc[k] += fft->spectrum()[k] * Q[c * bins + k];
+            }
+            std::copy(acc.begin(), acc.end(), fft->spectrum());
+            fft->inverse();
+            std::vector<double> p(fft->real(), fft->real() + std::min(samples, N));
+            for (double &v : p)
+                v *= scale;
+            // The plate still rings where the record ends: a raised-cosine fade
+            // over its last 10 ms (at most an eighth of it), so the cut is not
+            // heard as a click that is not there.
+            const std::size_t fade = std::min(p.size() / 8, static_cast<std::size_t>(0.01 * R));
+            for (std::size_t i = 0; i < fade; i++)
+                p[p.size() - 1 - i] *= 0.5 * (1 - std::cos(std::numbers::pi * (double(i) + 0.5) / double(fade)));
+            RadiatedSound &o = out[f];
+            for (double v : p)
+                o.peak_pa = std::max(o.peak_pa, std::abs(v));
+            const double energy = a_weighted_exposure(p, R);
+            o.exposure_level_dba = 10 * std::log10(std::max(energy, 1e-300) / (p0 * p0));
+            const double drive_s = double(signals[f].size() / C) / rate_hz;
+            o.laeq_dba = 10 * std::log10(std::max(energy / drive_s, 1e-300) / (p0 * p0));
+        }
+    }
+    if (!failure.empty())
+        throw std::runtime_error("radiated sound: " + failure);
     return out;
+}
+
+RadiatedSound radiated_sound(const CalibrationInput &in, const TransferMatrix &H, const std::vector<int16_t> &signals,
+                             double rate_hz, double distance_m)
+{
+    return radiated_sounds(in, H, {signals}, rate_hz, distance_m)[0];
 }
 
 }  // namespace calib::pipeline

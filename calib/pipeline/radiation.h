@@ -49,8 +49,17 @@ std::vector<double> rayleigh_pressure(const ObservationLattice &lattice, const s
 double a_weighted_exposure(const std::vector<double> &p, double rate_hz);
 
 // One focus's stored signals ([n][c] int16 at rate_hz) played through H, heard
-// on axis at distance_m above the plate centre.
+// on axis at distance_m above the plate centre (radiated_sounds of one).
 RadiatedSound radiated_sound(const CalibrationInput &in, const TransferMatrix &H, const std::vector<int16_t> &signals,
                              double rate_hz, double distance_m = 0.5);
+// The same for every focus's signals: the pressure is linear in the drive,
+// so the Rayleigh integral of each exciter's lattice responses is formed once
+// (Q_c) and each focus costs one transform per channel. The end of the record
+// fades in the pressure (10 ms, raised cosine), not in each point's
+// displacement as rayleigh_pressure does: the two differ by the propagation
+// delays across the plate within the fade (a few ms at most).
+std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const TransferMatrix &H,
+                                           const std::vector<std::vector<int16_t>> &signals, double rate_hz,
+                                           double distance_m = 0.5);
 
 }  // namespace calib::pipeline

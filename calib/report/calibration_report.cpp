@@ -77,6 +77,8 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                 t.insert("perceived_offset_m", toml::array{m.perceived_offset_m.x_m, m.perceived_offset_m.y_m});
                 t.insert("perceived_offset_distance_m", m.perceived_offset_distance_m);
                 t.insert("area_above_threshold_m2", m.area_above_threshold_m2);
+                if (m.sound)
+                    t.insert("sound_exposure_dba", m.sound_exposure_dba);
                 min_whole = std::min(min_whole, m.whole_area_contrast_db);
                 all_whole_below &= m.whole_area_below_threshold;
             }
@@ -124,6 +126,7 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                                            {"transfer", s.transfer_s},
                                            {"signals", s.signals_s},
                                            {"verification", s.verification_s},
+                                           {"sound", s.sound_s},
                                            {"total", c.total_s}});
     }
     if (c.modes)

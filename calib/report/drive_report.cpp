@@ -59,11 +59,14 @@ std::string drive_design_html(const ReportContext &c)
     if (d.empty())
         return h.str();
     h << "<table><tr><th>focus</th><th>drive energy (N<sup>2</sup> s)</th><th>energy above the pulse band (%)</th>"
-         "<th>focal peak per root energy (um / (N s<sup>1/2</sup>))</th></tr>";
-    for (std::size_t f = 0; f < d.size(); f++)
-        h << "<tr><td>" << c.verification->foci[f].id << "</td><td>" << fmt("%.3g", d[f].energy_n2s) << "</td><td>"
+         "<th>focal peak per root energy (um / (N s<sup>1/2</sup>))</th><th>sound on axis at 0.5 m, L<sub>AE</sub> "
+         "(dB(A))</th></tr>";
+    for (std::size_t f = 0; f < d.size(); f++) {
+        const pipeline::FocusMetrics &m = c.verification->foci[f];
+        h << "<tr><td>" << m.id << "</td><td>" << fmt("%.3g", d[f].energy_n2s) << "</td><td>"
           << fmt("%.2f", 100 * d[f].out_of_band_fraction) << "</td><td>" << fmt("%.3g", d[f].peak_per_root_energy * 1e6)
-          << "</td></tr>";
+          << "</td><td>" << (m.sound ? fmt("%.1f", m.sound_exposure_dba) : std::string("-")) << "</td></tr>";
+    }
     h << "</table>";
     return h.str();
 }

@@ -71,16 +71,14 @@ void run_case(const pipeline::CalibrationInput &base, const pipeline::TransferMa
         row.max_energy_n2s = std::max(row.max_energy_n2s, d.energy_n2s);
         row.max_out_of_band = std::max(row.max_out_of_band, d.out_of_band_fraction);
     }
-    row.max_sound_dba = -INFINITY;
-    for (const pipeline::DriveSignals &d : r.signals)
-        row.max_sound_dba = std::max(row.max_sound_dba, pipeline::radiated_sound(in, H, d.samples,
-                                                                                 in.calibration.output_rate_hz)
-                                                            .exposure_level_dba);
-    if (!multitouch)
-        return;
     std::vector<std::vector<int16_t>> stored;
     for (const pipeline::DriveSignals &d : r.signals)
         stored.push_back(d.samples);
+    row.max_sound_dba = -INFINITY;
+    for (const pipeline::RadiatedSound &snd : pipeline::radiated_sounds(in, H, stored, in.calibration.output_rate_hz))
+        row.max_sound_dba = std::max(row.max_sound_dba, snd.exposure_level_dba);
+    if (!multitouch)
+        return;
     const pipeline::MultiTouchReport mt =
         pipeline::verify_multitouch(in, H, stored, in.calibration.output_rate_hz);
     row.pairs = mt.cases.size();

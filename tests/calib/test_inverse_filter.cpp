@@ -14,6 +14,7 @@
 #include "pipeline/inverse_filter.h"
 #include "pipeline/lead_time.h"
 #include "pipeline/multitouch.h"
+#include "pipeline/playback.h"
 #include "pipeline/radiation.h"
 #include "pipeline/verification.h"
 #include "scene/calibration_input.h"
@@ -234,6 +235,30 @@ TEST(InverseFilter, BothMethodsMeetTheLeadTimeAndTheLargeWeightLimitIsTimeRevers
     }
     // What the inverse filter is for: more contrast over the whole area than time reversal.
     EXPECT_GT(inv_worst, tr_worst + 1.0);
+
+    // Each focus's sound in the verification (the Rayleigh integral of each
+    // exciter's lattice responses, formed once) against a second route: the
+    // focus's field played over the whole lattice, then the Rayleigh integral
+    // point by point (rayleigh_pressure, checked against a piston below).
+    for (const pipeline::CalibrationResult *r : {&tr, &inv})
+        for (std::size_t f = 0; f < in.foci.points.size(); f++) {
+            const pipeline::FocusMetrics &m = r->verification.foci[f];
+            ASSERT_TRUE(m.sound) << "focus " << m.id;
+            const auto force = pipeline::drive_forces(in, H, pipeline::to_unit(r->signals[f].samples),
+                                                      unsigned(H.channels), in.calibration.output_rate_hz);
+            const std::size_t drive = force[0].size();
+            const std::size_t samples = drive + std::size_t(std::ceil(in.calibration.verify_tail_s * H.rate_hz));
+            std::vector<std::size_t> all(H.lattice.size());
+            for (std::size_t n = 0; n < all.size(); n++)
+                all[n] = n;
+            const pipeline::Playback pb(H, all, drive, samples);
+            const auto &pp = in.plate->params();
+            const std::vector<double> p = pipeline::rayleigh_pressure(
+                H.lattice, pb.field(force), H.rate_hz, {pp.size_x_m / 2, pp.size_y_m / 2}, 0.5, pb.output_samples());
+            const double second = 10 * std::log10(pipeline::a_weighted_exposure(p, H.rate_hz) / (20e-6 * 20e-6));
+            EXPECT_NEAR(m.sound_exposure_dba, second, 0.1) << "focus " << m.id;
+            EXPECT_GT(m.sound_exposure_dba, 0.0) << "focus " << m.id;
+        }
 
     // A very large weight gives time reversal's drive up to scale (and the
     // pulse's sign: time reversal returns it reversed), to within the tapers
