@@ -46,7 +46,7 @@ std::vector<double> parse_list(const std::string &s, const char *option, double 
 
 struct LatencyArgs {
     std::string scene, report, leads_ms, regs;
-    bool quiet = false, no_pairs = false;
+    bool quiet = false, no_pairs = false, triples = false;
 };
 
 int run_study_latency(const LatencyArgs &a)
@@ -61,6 +61,7 @@ int run_study_latency(const LatencyArgs &a)
         o.regularizations = parse_list(a.regs, "--regularization", 0, 1e6);
     o.quiet = a.quiet;
     o.multitouch = !a.no_pairs;
+    o.triples = a.triples && !a.no_pairs;
     const study::LatencyResult r = study::run_latency_study(a.scene, o, [&](const std::string &line) {
         if (!a.quiet)
             std::fprintf(stderr, "%s\n", line.c_str());
@@ -136,6 +137,7 @@ void register_study(CLI::App &app, int &exit_code)
     latency->add_option("--lead-ms", l->leads_ms, "Lead times to sweep in ms (default 10,15,20,25,30,40,50,60,70,80)");
     latency->add_option("--regularization", l->regs, "Inverse-filter regularizations to sweep (default: the scene's)");
     latency->add_flag("--no-pairs", l->no_pairs, "Skip the two-finger verification of every pair of foci");
+    latency->add_flag("--triples", l->triples, "Verify every triple of foci (three fingers) too");
     latency->add_flag("-q,--quiet", l->quiet, "No progress on stderr");
     latency->callback([l, &exit_code] { exit_code = run_study_latency(*l); });
     auto r = std::make_shared<study::RobustnessOptions>();

@@ -39,7 +39,7 @@ std::string read_scene(const std::string &path)
 
 // One case on the shared H: the drives, their level, the verification.
 void run_case(const pipeline::CalibrationInput &base, const pipeline::TransferMatrix &H,
-              const std::vector<pipeline::Point> &exciters, bool multitouch, LatencyRow &row)
+              const std::vector<pipeline::Point> &exciters, bool multitouch, bool triples, LatencyRow &row)
 {
     pipeline::CalibrationInput in = base;
     in.calibration.method = row.method;
@@ -80,14 +80,25 @@ void run_case(const pipeline::CalibrationInput &base, const pipeline::TransferMa
     if (!multitouch)
         return;
     const pipeline::MultiTouchReport mt =
-        pipeline::verify_multitouch(in, H, stored, in.calibration.output_rate_hz);
-    row.pairs = mt.cases.size();
-    row.pairs_failing = mt.failing;
-    if (!mt.cases.empty()) {
-        const pipeline::MultiTouchCase &w = mt.cases[mt.worst];
-        row.worst_pair[0] = in.foci.points[w.foci[0]].id;
-        row.worst_pair[1] = in.foci.points[w.foci[1]].id;
-        row.worst_pair_margin_m = w.margin_m;
+        pipeline::verify_multitouch(in, H, stored, in.calibration.output_rate_hz, triples);
+    const pipeline::MultiTouchCase *worst_pair = nullptr, *worst_triple = nullptr;
+    for (const pipeline::MultiTouchCase &c : mt.cases) {
+        const bool pair = c.foci.size() == 2;
+        (pair ? row.pairs : row.triples)++;
+        (pair ? row.pairs_failing : row.triples_failing) += !c.ok;
+        const pipeline::MultiTouchCase *&w = pair ? worst_pair : worst_triple;
+        if (!w || c.margin_m < w->margin_m)
+            w = &c;
+    }
+    if (worst_pair) {
+        for (int i = 0; i < 2; i++)
+            row.worst_pair[i] = in.foci.points[worst_pair->foci[std::size_t(i)]].id;
+        row.worst_pair_margin_m = worst_pair->margin_m;
+    }
+    if (worst_triple) {
+        for (int i = 0; i < 3; i++)
+            row.worst_triple[i] = in.foci.points[worst_triple->foci[std::size_t(i)]].id;
+        row.worst_triple_margin_m = worst_triple->margin_m;
     }
 }
 
@@ -168,7 +179,7 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
     for (LatencyRow &row : cases) {
         t0 = Clock::now();
         try {
-            run_case(in, H, res.exciters, o.multitouch, row);
+            run_case(in, H, res.exciters, o.multitouch, o.triples, row);
         } catch (const std::exception &e) {
             row.error = e.what();
         }

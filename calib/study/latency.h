@@ -22,6 +22,7 @@ struct LatencyOptions {
     std::vector<double> lead_times_s = {0.010, 0.015, 0.020, 0.025, 0.030, 0.040, 0.050, 0.060, 0.070, 0.080};
     std::vector<double> regularizations;  // empty: the scene's
     bool multitouch = true;               // verify every pair of foci too
+    bool triples = false;                 // ... and every triple of foci >= lambda/2 apart
     bool quiet = false;
 };
 
@@ -45,6 +46,9 @@ struct LatencyRow {
     std::size_t pairs = 0, pairs_failing = 0;
     uint32_t worst_pair[2] = {0, 0};     // focus ids
     double worst_pair_margin_m = 0;      // min(weakest focus - threshold, threshold - max elsewhere)
+    std::size_t triples = 0, triples_failing = 0;  // three fingers (LatencyOptions::triples)
+    uint32_t worst_triple[3] = {0, 0, 0};
+    double worst_triple_margin_m = 0;
     double max_sound_dba = 0;            // loudest focus: L_AE on axis at 0.5 m (pipeline/radiation.h)
     double seconds = 0;                  // design and verification wall time
     std::string error;                   // a case that failed (refused lead time, ...)

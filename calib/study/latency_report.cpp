@@ -56,7 +56,8 @@ std::string write_latency_report(const LatencyResult &r, const std::string &dir)
     csv << "scene,method,regularization,scene_default_lead,lead_time_target_s,lead_time_measured_s,"
            "worst_whole_area_contrast_db,worst_other_foci_contrast_db,min_peak_m,margin_under_threshold_m,"
            "all_cross,all_alone,min_peak_per_root_energy,max_drive_energy_n2s,max_out_of_band_fraction,pairs,pairs_failing,"
-           "worst_pair,worst_pair_margin_m,max_sound_exposure_dba,seconds,error\n";
+           "worst_pair,worst_pair_margin_m,triples,triples_failing,worst_triple,worst_triple_margin_m,max_sound_exposure_dba,"
+           "seconds,error\n";
     for (const LatencyRow &x : r.rows) {
         std::string err = x.error;
         std::replace(err.begin(), err.end(), ',', ';');
@@ -66,7 +67,9 @@ std::string write_latency_report(const LatencyResult &r, const std::string &dir)
             << x.worst_other_foci_db << ',' << x.min_peak_m << ',' << x.margin_m << ',' << (x.all_cross ? 1 : 0) << ','
             << (x.all_alone ? 1 : 0) << ',' << x.min_peak_per_root_energy << ',' << x.max_energy_n2s << ','
             << x.max_out_of_band << ',' << x.pairs << ',' << x.pairs_failing << ',' << x.worst_pair[0] << '+'
-            << x.worst_pair[1] << ',' << x.worst_pair_margin_m << ',' << x.max_sound_dba << ',' << x.seconds << ",\"" << err << "\"\n";
+            << x.worst_pair[1] << ',' << x.worst_pair_margin_m << ',' << x.triples << ',' << x.triples_failing << ','
+            << x.worst_triple[0] << '+' << x.worst_triple[1] << '+' << x.worst_triple[2] << ','
+            << x.worst_triple_margin_m << ',' << x.max_sound_dba << ',' << x.seconds << ",\"" << err << "\"\n";
     }
     io::write_file_atomic(dir + "/latency.csv", csv.str());
 
@@ -100,14 +103,14 @@ std::string write_latency_report(const LatencyResult &r, const std::string &dir)
        << "| method | lead target (ms) | lead measured (ms) | worst whole-area contrast (dB) | worst over other foci "
           "(dB) | min peak (um) | margin under threshold (um) | every focus crosses | crosses alone | peak per root "
           "energy (um/(N s^0.5)) | max drive energy (N^2 s) | max energy above band (%) | pairs failing | worst "
-          "pair: margin (um) | loudest focus L_AE at 0.5 m (dB(A)) |\n"
-       << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+          "pair: margin (um) | triples failing | worst triple: margin (um) | loudest focus L_AE at 0.5 m (dB(A)) |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (const LatencyRow &x : r.rows) {
         const bool inv = x.method == pipeline::DriveMethod::inverse_filter;
         md << "| " << (inv ? "inverse filter, eps " + fmt("%g", x.regularization) : std::string("time reversal"))
            << (x.scene_default ? " (scene window)" : "") << " | " << fmt("%.1f", x.lead_target_s * 1e3) << " | ";
         if (!x.error.empty()) {
-            md << "failed: " << x.error << " ||||||||||||| \n";
+            md << "failed: " << x.error << " ||||||||||||||| \n";
             continue;
         }
         md << fmt("%.1f", x.lead_measured_s * 1e3) << " | " << fmt("%.1f", x.worst_whole_area_db) << " | "
@@ -120,6 +123,12 @@ std::string write_latency_report(const LatencyResult &r, const std::string &dir)
            << (x.pairs ? std::to_string(x.worst_pair[0]) + "+" + std::to_string(x.worst_pair[1]) + ": " +
                              fmt("%+.2f", x.worst_pair_margin_m * 1e6)
                        : std::string("-"))
+           << " | "
+           << (x.triples ? std::to_string(x.triples_failing) + " of " + std::to_string(x.triples) : std::string("-"))
+           << " | "
+           << (x.triples ? std::to_string(x.worst_triple[0]) + "+" + std::to_string(x.worst_triple[1]) + "+" +
+                               std::to_string(x.worst_triple[2]) + ": " + fmt("%+.2f", x.worst_triple_margin_m * 1e6)
+                         : std::string("-"))
            << " | " << fmt("%.1f", x.max_sound_dba) << " |\n";
     }
     io::write_file_atomic(dir + "/latency.md", md.str());
