@@ -57,9 +57,7 @@ FocusCeiling ideal_focus_ceiling(const PulseSpec &pulse, const std::function<dou
         n *= 2;
     RealFft fft(n);
     const std::vector<double> p = sample_pulse(pulse, rate);
-    std::fill(fft.real(), fft.real() + n, 0.0);
-    std::copy(p.begin(), p.begin() + long(std::min(p.size(), n)), fft.real());
-    fft.forward();
+    fft.forward_padded(p.data(), p.size());
     const std::size_t bins = fft.bins();
     const std::vector<std::complex<double>> target(fft.spectrum(), fft.spectrum() + bins);
     // The band that carries the pulse (1e-4 of its spectrum's peak); above it, nothing.

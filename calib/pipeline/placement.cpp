@@ -132,13 +132,7 @@ ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> 
     std::string failure;
 #pragma omp parallel
     {
-        std::unique_ptr<RealFft> fft;
-        try {
-            fft = std::make_unique<RealFft>(nfft);
-        } catch (const std::exception &ex) {
-#pragma omp critical
-            failure = ex.what();
-        }
+        const std::unique_ptr<RealFft> fft = thread_fft(nfft, failure);
         const size_t bins = nfft / 2 + 1;
         std::vector<std::complex<double>> spec_full(fft ? rows_ * bins : 0), spec_kept(fft ? foci_ * bins : 0);
         const double scale = 1.0 / static_cast<double>(nfft);  // FFTW's inverse is unnormalized
@@ -149,14 +143,10 @@ ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> 
             double *x = fft->real();
             std::complex<double> *X = fft->spectrum();
             for (size_t g = 0; g < rows_; g++) {
-                std::fill(x, x + nfft, 0.0);
-                std::copy(h[g][i].begin(), h[g][i].end(), x);
-                fft->forward();
+                fft->forward_padded(h[g][i].data(), h[g][i].size());
                 std::copy(X, X + bins, &spec_full[g * bins]);
                 if (g < foci_) {
-                    std::fill(x, x + nfft, 0.0);
-                    std::copy(r[g][i].begin(), r[g][i].begin() + static_cast<long>(keep), x);
-                    fft->forward();
+                    fft->forward_padded(r[g][i].data(), keep);
                     std::copy(X, X + bins, &spec_kept[g * bins]);
                 }
             }

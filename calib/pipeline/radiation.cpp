@@ -125,13 +125,7 @@ std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const Tra
     std::string failure;
 #pragma omp parallel
     {
-        std::unique_ptr<RealFft> fft;
-        try {
-            fft = std::make_unique<RealFft>(N);
-        } catch (const std::exception &ex) {
-#pragma omp critical
-            failure = ex.what();
-        }
+        const std::unique_ptr<RealFft> fft = thread_fft(N, failure);
 #pragma omp for schedule(dynamic)
         for (std::size_t c = 0; c < C; c++) {  // each exciter's Q_c on one thread
             if (!fft)
@@ -139,9 +133,7 @@ std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const Tra
             std::complex<double> *q = &Q[c * bins];
             for (std::size_t n = 0; n < L; n++) {
                 const float *h = H.response(c, n);
-                std::fill(fft->real(), fft->real() + N, 0.0);
-                std::copy(h, h + H.samples, fft->real());
-                fft->forward();
+                fft->forward_padded(h, H.samples);
                 const double tau = dist[n] / sound_speed_m_s;
                 for (std::size_t k = 0; k < bins; k++) {
                     const double om = 2 * std::numbers::pi * double(k) * R / double(N);
@@ -155,13 +147,7 @@ std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const Tra
     const double p0 = 20e-6;
 #pragma omp parallel
     {
-        std::unique_ptr<RealFft> fft;
-        try {
-            fft = std::make_unique<RealFft>(N);
-        } catch (const std::exception &ex) {
-#pragma omp critical
-            failure = ex.what();
-        }
+        const std::unique_ptr<RealFft> fft = thread_fft(N, failure);
         std::vector<std::complex<double>> acc(bins);
 #pragma omp for schedule(dynamic)
         for (std::size_t f = 0; f < signals.size(); f++) {
@@ -169,9 +155,7 @@ std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const Tra
                 continue;
             std::fill(acc.begin(), acc.end(), std::complex<double>{});
             for (std::size_t c = 0; c < C; c++) {
-                std::fill(fft->real(), fft->real() + N, 0.0);
-                std::copy(force[f][c].begin(), force[f][c].end(), fft->real());
-                fft->forward();
+                fft->forward_padded(force[f][c].data(), force[f][c].size());
                 for (std::size_t k = 0; k < bins; k++)
                     acc[k] += fft->spectrum()[k] * Q[c * bins + k];
             }

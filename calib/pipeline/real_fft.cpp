@@ -54,4 +54,16 @@ RealFft::~RealFft()
 void RealFft::forward() { fftw_execute(static_cast<fftw_plan>(forward_)); }
 void RealFft::inverse() { fftw_execute(static_cast<fftw_plan>(inverse_)); }
 
+std::unique_ptr<RealFft> thread_fft(std::size_t n, std::string &failure)
+{
+    try {
+        return std::make_unique<RealFft>(n);
+    } catch (const std::exception &ex) {
+#pragma omp critical(thread_fft_failure)
+        if (failure.empty())
+            failure = ex.what();
+        return nullptr;
+    }
+}
+
 }  // namespace calib::pipeline

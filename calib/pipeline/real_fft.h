@@ -4,7 +4,9 @@
 #pragma once
 #include <complex>
 #include <cstddef>
+#include <memory>
 #include <mutex>
+#include <string>
 
 namespace calib::pipeline {
 
@@ -24,6 +26,17 @@ public:
     double *real() { return real_; }                  // size() samples
     std::complex<double> *spectrum() { return spec_; }  // bins() bins
     void forward();  // real() -> spectrum()
+    // x[0..count) zero-padded to size() into real(), then forward().
+    template <typename T>
+    void forward_padded(const T *x, std::size_t count)
+    {
+        const std::size_t m = count < n_ ? count : n_;
+        for (std::size_t i = 0; i < m; i++)
+            real_[i] = double(x[i]);
+        for (std::size_t i = m; i < n_; i++)
+            real_[i] = 0.0;
+        forward();
+    }
     void inverse();  // spectrum() -> real(), unnormalized (n times the signal); spectrum() is overwritten
 
 private:
@@ -32,5 +45,10 @@ private:
     std::complex<double> *spec_ = nullptr;
     void *forward_ = nullptr, *inverse_ = nullptr;
 };
+
+// One transform per OpenMP thread, made inside a parallel region: on failure
+// the first message goes to `failure` and the result is null. A thread without
+// one must still enter the region's work-sharing loops (and skip its share).
+std::unique_ptr<RealFft> thread_fft(std::size_t n, std::string &failure);
 
 }  // namespace calib::pipeline
