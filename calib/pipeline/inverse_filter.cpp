@@ -264,19 +264,23 @@ InverseFilterDesign minimax_design(const Plates &plates, InverseFilterProblem p,
     double best_ratio = -1;
     for (int it = 0; it <= o.minimax_iterations; it++) {
         InverseFilterDesign d = design_inverse_filter(plates, p, o);
-        // Per control point its largest |w| over time and plates; the focal
-        // peak of the weakest plate.
+        // Per control point its largest |w| over time relative to its plate's
+        // focal peak, the largest over the plates (what the worst plate's
+        // contrast sees; a plate that is louder overall does not count as
+        // worse). One plate: |w| itself (the same weights, bit for bit).
         std::vector<double> m(Q, 0.0);
-        double worst = 0, focal = std::numeric_limits<double>::infinity();
+        double worst = 0, focal = 1;
         for (const auto &play : pb) {
             const auto w = play->field(d.drive);
+            focal = sample_peak(w[Q].data(), w[Q].size());
+            const double scale = pb.size() > 1 ? 1 / std::max(focal, 1e-300) : 1.0;
             for (std::size_t q = 0; q < Q; q++)
-                m[q] = std::max(m[q], sample_peak(w[q].data(), w[q].size()));
-            focal = std::min(focal, sample_peak(w[Q].data(), w[Q].size()));
+                m[q] = std::max(m[q], sample_peak(w[q].data(), w[q].size()) * scale);
         }
         for (std::size_t q = 0; q < Q; q++)
             worst = std::max(worst, m[q]);
-        const double ratio = focal / std::max(worst, 1e-300);
+        // The focal peak over the worst control point (of the worst plate).
+        const double ratio = (pb.size() > 1 ? 1.0 : focal) / std::max(worst, 1e-300);
         if (ratio > best_ratio) {
             best_ratio = ratio;
             best = std::move(d);
