@@ -208,4 +208,17 @@ TEST(RobustInverseFilter, SceneTakesTheCombinationAndRefusesBadSpecsInOneLine)
     EXPECT_NE(key.find("calibration.robust.E_scales"), std::string::npos) << key;
     for (const std::string &e : {level, scale, empty, key})
         EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+
+    // What still cannot combine: a finger on the panel (no transfer matrix
+    // holds, so there is no plate to stack), refused before any simulation.
+    std::string refusal;
+    try {
+        pipeline::check_feasible(input(with + "[effects.finger]\nmass_kg = 0.004\nstiffness_n_m = 1500\n"
+                                              "damping_n_s_m = 0.8\nposition_m = [0.15, 0.12]\n"));
+    } catch (const std::invalid_argument &e) {
+        refusal = e.what();
+    }
+    EXPECT_EQ(refusal.rfind("calibration.robust: ", 0), 0u) << refusal;
+    EXPECT_NE(refusal.find("[effects.finger]"), std::string::npos) << refusal;
+    EXPECT_EQ(refusal.find('\n'), std::string::npos) << refusal;
 }
