@@ -194,8 +194,8 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
     tro.dither = in.calibration.dither;
     res.signals = in.calibration.method == DriveMethod::inverse_filter ? inverse_filter_signals(in, H)
                                                                       : signals_from_transfer(in, H);
-    // A robust design (time reversal over the ensemble) replaces them; the
-    // plain design stays for the comparison.
+    // A robust design (the same method over the ensemble of plates) replaces
+    // them; the plain design stays for the comparison.
     std::vector<DriveSignals> plain;
     std::optional<RobustDesign> robust;
     if (in.robust) {

@@ -1,4 +1,5 @@
 #include "pipeline/calibrate_stages.h"
+#include "pipeline/inverse_filter.h"
 #include "pipeline/peaks.h"
 #include "pipeline/robust.h"
 #include "pipeline/verification.h"
@@ -69,6 +70,47 @@ std::vector<Member> simulate_members(const CalibrationInput &in, const TransferM
     return out;
 }
 
+// Sample s at `rate_hz` of Hm's response h: the stored sample at Hm's own
+// rate, band-limited interpolation at another (an E-rescaled member, or a
+// member whose loss asked for a shorter step), zero beyond its samples.
+double sample_at(const TransferMatrix &Hm, const float *h, std::size_t s, double rate_hz)
+{
+    if (Hm.rate_hz == rate_hz)
+        return s < Hm.samples ? double(h[s]) : 0.0;
+    return interpolate(h, Hm.samples, double(s) * Hm.rate_hz / rate_hz);
+}
+
+// A stacked design needs every plate's H on the nominal points.
+void check_same_points(const TransferMatrix &Hm, const TransferMatrix &H)
+{
+    if (Hm.point_count() != H.point_count() || Hm.exact_begin() != H.exact_begin() || Hm.channels != H.channels)
+        throw std::runtime_error("calibration.robust: a member plate's transfer matrix has other points than the "
+                                 "nominal one");
+    for (std::size_t p = 0; p < H.point_count(); p++)
+        if (std::hypot(Hm.points[p].x_m - H.points[p].x_m, Hm.points[p].y_m - H.points[p].y_m) > 1e-9)
+            throw std::runtime_error("calibration.robust: a member plate's observation lattice is not the nominal one");
+}
+
+// Hm with H's rate and sample count (every point), for a stacked design.
+TransferMatrix at_rate_of(const TransferMatrix &Hm, const TransferMatrix &H)
+{
+    TransferMatrix R = Hm;
+    R.samples = H.samples;
+    R.rate_hz = H.rate_hz;
+    R.decimation = H.decimation;
+    R.time_step_s = H.time_step_s;
+    R.data.assign(H.channels * H.point_count() * H.samples, 0.0f);
+    const std::size_t P = H.point_count();
+#pragma omp parallel for schedule(static)
+    for (std::size_t cp = 0; cp < H.channels * P; cp++) {
+        const float *h = Hm.response(cp / P, cp % P);
+        float *out = R.data.data() + cp * H.samples;
+        for (std::size_t s = 0; s < H.samples; s++)
+            out[s] = static_cast<float>(sample_at(Hm, h, s, H.rate_hz));
+    }
+    return R;
+}
+
 TransferMatrix average(const TransferMatrix &H, const std::vector<Member> &members)
 {
     TransferMatrix A;
@@ -89,13 +131,12 @@ TransferMatrix average(const TransferMatrix &H, const std::vector<Member> &membe
         }
     for (const Member &m : members) {
         const TransferMatrix &Hm = m.H;
-        const bool same_rate = Hm.rate_hz == H.rate_hz && Hm.samples >= S;
         for (std::size_t c = 0; c < C; c++)
             for (std::size_t f = 0; f < F; f++) {
                 const float *h = Hm.response(c, Hm.exact_begin() + f);
                 double *acc = &sum[(c * F + f) * S];
-                for (std::size_t s = 0; s < S; s++)  // at H's rate (band-limited interpolation if another)
-                    acc[s] += same_rate ? double(h[s]) : interpolate(h, Hm.samples, double(s) * Hm.rate_hz / H.rate_hz);
+                for (std::size_t s = 0; s < S; s++)  // at H's rate
+                    acc[s] += sample_at(Hm, h, s, H.rate_hz);
             }
     }
     const double n = double(members.size() + 1);
@@ -119,8 +160,28 @@ RobustDesign robust_design(const CalibrationInput &in, const TransferMatrix &H, 
     const RobustSpec spec = in.robust.value_or(RobustSpec{});
     RobustDesign d;
     d.members = ensemble_members(in, spec);
-    const std::vector<Member> plates = simulate_members(in, H, d.members, spec.margin_level, progress);
-    d.signals = signals_from_transfer(in, average(H, plates));
+    // The inverse filter's objective covers the whole active area: every
+    // member is simulated with the observation lattice (time reversal needs it
+    // only for the margin level).
+    const bool inverse = in.calibration.method == DriveMethod::inverse_filter;
+    const std::vector<Member> plates = simulate_members(in, H, d.members, spec.margin_level || inverse, progress);
+    if (inverse) {
+        std::vector<TransferMatrix> resampled;  // members at another rate, at H's
+        resampled.reserve(plates.size());
+        Plates stack{&H};
+        for (const Member &m : plates) {
+            check_same_points(m.H, H);
+            if (m.H.rate_hz == H.rate_hz && m.H.samples == H.samples) {
+                stack.push_back(&m.H);
+                continue;
+            }
+            resampled.push_back(at_rate_of(m.H, H));
+            stack.push_back(&resampled.back());
+        }
+        d.signals = inverse_filter_signals(in, stack);
+    } else {
+        d.signals = signals_from_transfer(in, average(H, plates));
+    }
     if (spec.margin_level) {
         // Full-scale playback on every plate: the weakest focal peak P and the
         // strongest displacement elsewhere G per focus; linearity gives the level.

@@ -14,6 +14,8 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <limits>
+#include <memory>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -49,15 +51,16 @@ double largest_eigenvalue(const Eigen::MatrixXd &G)
     return eigs.eigenvalues()[0];
 }
 
-// Cross-correlations summed over points with weights:
-//   R[c][c'][l + J - 1] = sum_p w_p sum_m h_cp[m] h_c'p[m + l],  |l| < J,
+// Cross-correlations summed over plates and points with weights:
+//   R[c][c'][l + J - 1] = sum_m sum_p w_p sum_n h^m_cp[n] h^m_c'p[n + l],  |l| < J,
 // from the cross-spectra of the zero-padded responses (N >= S + J - 1: no
 // wrap-around within the lags kept).
-std::vector<std::vector<std::vector<double>>> summed_correlations(const TransferMatrix &H,
+std::vector<std::vector<std::vector<double>>> summed_correlations(const Plates &plates,
                                                                   const std::vector<std::size_t> &points,
                                                                   const std::vector<double> &weights, std::size_t J)
 {
-    const std::size_t C = H.channels, S = H.samples, N = next_pow2(S + J - 1);
+    const TransferMatrix &H0 = *plates.front();
+    const std::size_t C = H0.channels, S = H0.samples, N = next_pow2(S + J - 1), P = points.size();
     const std::size_t pairs = C * (C + 1) / 2;
     std::vector<Complex> total(pairs * N, Complex{});
 #pragma omp parallel
@@ -67,7 +70,9 @@ std::vector<std::vector<std::vector<double>>> summed_correlations(const Transfer
         std::vector<std::vector<Complex>> X(C);
         std::vector<Complex> acc(pairs * N, Complex{});
 #pragma omp for schedule(dynamic, 8)
-        for (std::size_t i = 0; i < points.size(); i++) {
+        for (std::size_t mi = 0; mi < plates.size() * P; mi++) {
+            const TransferMatrix &H = *plates[mi / P];
+            const std::size_t i = mi % P;
             for (std::size_t c = 0; c < C; c++) {
                 const float *h = H.response(c, points[i]);
                 std::fill(buf.begin(), buf.end(), 0.0);
@@ -103,11 +108,30 @@ std::vector<std::vector<std::vector<double>>> summed_correlations(const Transfer
     return R;
 }
 
+void check_plates(const Plates &plates)
+{
+    if (plates.empty() || !plates.front())
+        throw std::invalid_argument("inverse filter: no plate");
+    const TransferMatrix &H = *plates.front();
+    for (const TransferMatrix *m : plates)
+        if (!m || m->channels != H.channels || m->samples != H.samples || m->rate_hz != H.rate_hz ||
+            m->point_count() != H.point_count() || m->exact_begin() != H.exact_begin())
+            throw std::invalid_argument("inverse filter: the stacked plates differ in channels, samples, rate or points");
+}
+
 }  // namespace
 
 InverseFilterDesign design_inverse_filter(const TransferMatrix &H, const InverseFilterProblem &p,
                                           const InverseFilterOptions &o)
 {
+    return design_inverse_filter(Plates{&H}, p, o);
+}
+
+InverseFilterDesign design_inverse_filter(const Plates &plates, const InverseFilterProblem &p,
+                                          const InverseFilterOptions &o)
+{
+    check_plates(plates);
+    const TransferMatrix &H = *plates.front();
     const std::size_t C = H.channels, S = H.samples, J = p.drive_samples;
     if (C == 0 || S == 0 || J == 0 || p.target.empty())
         throw std::invalid_argument("inverse filter: empty problem (no exciters, samples, drive or target)");
@@ -128,7 +152,7 @@ InverseFilterDesign design_inverse_filter(const TransferMatrix &H, const Inverse
         points.push_back(p.control[i]);
         weights.push_back(p.control_weights.empty() ? 1.0 : p.control_weights[i]);
     }
-    const auto R = summed_correlations(H, points, weights, J);
+    const auto R = summed_correlations(plates, points, weights, J);
     Eigen::MatrixXd G(n, n);
     for (std::size_t c = 0; c < C; c++)
         for (std::size_t d = c; d < C; d++)
@@ -140,17 +164,19 @@ InverseFilterDesign design_inverse_filter(const TransferMatrix &H, const Inverse
                     G(Eigen::Index(d * J + jj), Eigen::Index(c * J + j)) = v;
                 }
 
-    // Right-hand side: W_f A_f^T d, b[(c,j)] = W_f sum_m h_cf[m] d[m + j].
-    Eigen::VectorXd b(n);
-    for (std::size_t c = 0; c < C; c++) {
-        const float *h = H.response(c, p.focus);
-        for (std::size_t j = 0; j < J; j++) {
-            double acc = 0;
-            for (std::size_t m = 0; m < S && m + j < p.target.size(); m++)
-                acc += double(h[m]) * p.target[m + j];
-            b(Eigen::Index(c * J + j)) = o.focus_weight * acc;
+    // Right-hand side: W_f A_f^T d summed over the plates,
+    // b[(c,j)] = W_f sum_m sum_n h^m_cf[n] d[n + j].
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(Eigen::Index(n));
+    for (const TransferMatrix *Hm : plates)
+        for (std::size_t c = 0; c < C; c++) {
+            const float *h = Hm->response(c, p.focus);
+            for (std::size_t j = 0; j < J; j++) {
+                double acc = 0;
+                for (std::size_t m = 0; m < S && m + j < p.target.size(); m++)
+                    acc += double(h[m]) * p.target[m + j];
+                b(Eigen::Index(c * J + j)) += o.focus_weight * acc;
+            }
         }
-    }
 
     InverseFilterDesign out;
     out.lambda_max = largest_eigenvalue(G);
@@ -219,25 +245,42 @@ std::vector<double> focus_target(const CalibrationInput &in, double rate_hz, dou
 
 InverseFilterDesign minimax_design(const TransferMatrix &H, InverseFilterProblem p, const InverseFilterOptions &o)
 {
+    return minimax_design(Plates{&H}, std::move(p), o);
+}
+
+InverseFilterDesign minimax_design(const Plates &plates, InverseFilterProblem p, const InverseFilterOptions &o)
+{
     if (o.minimax_iterations <= 0 || p.control.empty())
-        return design_inverse_filter(H, p, o);
+        return design_inverse_filter(plates, p, o);
+    check_plates(plates);
     std::vector<std::size_t> served = p.control;
     served.push_back(p.focus);
     const std::size_t Q = p.control.size();
-    Playback pb(H, served, p.drive_samples, p.drive_samples + H.samples - 1);
+    std::vector<std::unique_ptr<Playback>> pb;
+    for (const TransferMatrix *Hm : plates)
+        pb.push_back(std::make_unique<Playback>(*Hm, served, p.drive_samples, p.drive_samples + Hm->samples - 1));
     p.control_weights.assign(Q, 1.0);
     InverseFilterDesign best;
     double best_ratio = -1;
     for (int it = 0; it <= o.minimax_iterations; it++) {
-        InverseFilterDesign d = design_inverse_filter(H, p, o);
-        const auto w = pb.field(d.drive);
-        std::vector<double> m(Q);
-        double worst = 0;
-        for (std::size_t q = 0; q < Q; q++) {
-            m[q] = sample_peak(w[q].data(), w[q].size());
-            worst = std::max(worst, m[q]);
+        InverseFilterDesign d = design_inverse_filter(plates, p, o);
+        // Per control point its largest |w| over time relative to its plate's
+        // focal peak, the largest over the plates (what the worst plate's
+        // contrast sees; a plate that is louder overall does not count as
+        // worse). One plate: |w| itself (the same weights, bit for bit).
+        std::vector<double> m(Q, 0.0);
+        double worst = 0, focal = 1;
+        for (const auto &play : pb) {
+            const auto w = play->field(d.drive);
+            focal = sample_peak(w[Q].data(), w[Q].size());
+            const double scale = pb.size() > 1 ? 1 / std::max(focal, 1e-300) : 1.0;
+            for (std::size_t q = 0; q < Q; q++)
+                m[q] = std::max(m[q], sample_peak(w[q].data(), w[q].size()) * scale);
         }
-        const double ratio = sample_peak(w[Q].data(), w[Q].size()) / std::max(worst, 1e-300);
+        for (std::size_t q = 0; q < Q; q++)
+            worst = std::max(worst, m[q]);
+        // The focal peak over the worst control point (of the worst plate).
+        const double ratio = (pb.size() > 1 ? 1.0 : focal) / std::max(worst, 1e-300);
         if (ratio > best_ratio) {
             best_ratio = ratio;
             best = std::move(d);
@@ -255,6 +298,13 @@ InverseFilterDesign minimax_design(const TransferMatrix &H, InverseFilterProblem
 
 std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H)
 {
+    return inverse_filter_signals(in, Plates{&H});
+}
+
+std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const Plates &plates)
+{
+    check_plates(plates);
+    const TransferMatrix &H = *plates.front();
     TimeReversalOptions tro;
     tro.output_rate_hz = in.calibration.output_rate_hz;
     tro.dither = in.calibration.dither;
@@ -272,7 +322,7 @@ std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, con
         p.focus = H.exact_begin() + f;
         p.control = control_points(in, H, f);
         try {
-            InverseFilterDesign d = minimax_design(H, p, o);
+            InverseFilterDesign d = minimax_design(plates, p, o);
             tro.dither_seed = in.exciters.seed * 1000003u + f;
             out.push_back(finish_drive_signals(std::move(d.drive), H.rate_hz, delay, tro));
         } catch (const std::exception &e) {

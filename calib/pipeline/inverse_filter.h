@@ -47,6 +47,18 @@
 // |w| relative to the worst (InverseFilterOptions::minimax_iterations). The device signal is the drive
 // resampled to the output rate (no content above H's Nyquist rate) with the
 // same raised-cosine fades as time reversal (time_reversal.h).
+//
+// Stacked over plates (the robust design, robust.h): one drive for several
+// transfer matrices H_m of the same exciters and points (the nominal plate
+// and perturbed ones), minimising the sum over m of the objective above on
+// H_m. Its normal equations are the sums of the plates': G = sum_m G_m,
+// b = sum_m b_m (the penalty once), and the regularisation stays relative:
+// beta = epsilon lambda_max(sum_m G_m). So M identical plates give the plain
+// design (G, b and beta all scale by M), and the rule keeps its meaning
+// however many plates are stacked. The minimax refinement weighs a control
+// point by its largest |w| over time and over all plates, and keeps the
+// design with the best ratio of the weakest plate's focal peak to the worst
+// control point over the plates.
 #pragma once
 #include "pipeline/time_reversal.h"
 #include "pipeline/transfer.h"
@@ -81,18 +93,29 @@ struct InverseFilterProblem {
 
 struct InverseFilterDesign {
     std::vector<std::vector<double>> drive;  // [c][j], force (N) at H's rate, j < J
-    double lambda_max = 0;                   // of the data part of G
+    double lambda_max = 0;                   // of the data part of G (summed over the plates)
     double beta = 0;
 };
+
+// The plates of a stacked design: the nominal H first, then the others, all
+// with the same channels, samples, rate and points (resample a plate's H
+// first if its rate differs).
+using Plates = std::vector<const TransferMatrix *>;
 
 // Throws std::invalid_argument for an empty problem, std::runtime_error when
 // the solve fails.
 InverseFilterDesign design_inverse_filter(const TransferMatrix &H, const InverseFilterProblem &problem,
                                           const InverseFilterOptions &options);
+// Stacked over plates (above); also throws std::invalid_argument when the
+// plates do not match.
+InverseFilterDesign design_inverse_filter(const Plates &plates, const InverseFilterProblem &problem,
+                                          const InverseFilterOptions &options);
 
 // design_inverse_filter with the options' minimax refinement (the problem's
 // control weights are where it starts from: ignored, all 1).
 InverseFilterDesign minimax_design(const TransferMatrix &H, InverseFilterProblem problem,
+                                   const InverseFilterOptions &options);
+InverseFilterDesign minimax_design(const Plates &plates, InverseFilterProblem problem,
                                    const InverseFilterOptions &options);
 
 // The control points of focus f (index into the scene's foci): lattice points
@@ -106,5 +129,8 @@ std::vector<double> focus_target(const CalibrationInput &in, double rate_hz, dou
 // Per focus, the inverse-filter drives at full scale for the scene's lead
 // time (lead_time.h) and regularization.
 std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H);
+// Stacked over plates (the nominal H first; the foci and the control points
+// are its).
+std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const Plates &plates);
 
 }  // namespace calib::pipeline

@@ -1,8 +1,16 @@
 // The two stages calibrate() adds for a scene with [tolerance] or a robust
 // design (docs/robustness.md).
 //
-// Robust design ([calibration] robust = { loss = [...], E_scale = [...] }):
-// time reversal from the ensemble average of the exciter -> focus responses
+// Robust design ([calibration] robust = { loss = [...], E_scale = [...] }),
+// by the scene's method over the nominal plate and the member plates.
+//
+// The inverse filter: stacked least squares (inverse_filter.h), one drive
+// per focus minimising the sum over the plates of the inverse filter's
+// objective (the focus and the whole active area at all times), each member
+// simulated with the observation lattice; the regularisation relative to the
+// largest eigenvalue of the summed normal matrix.
+//
+// Time reversal: from the ensemble average of the exciter -> focus responses
 // of the nominal plate and of each member plate (one parameter changed per
 // member). Averaging keeps what the plates share, the early, direct paths,
 // and lets the late reverberation, whose phase a few per cent of wave speed

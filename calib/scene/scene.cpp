@@ -187,12 +187,8 @@ void parse_calibration_section(const toml::table &t, Scene &scene)
                    {"window_s", "truncate_fraction", "output_rate_hz", "sample_format", "threshold_m", "dither",
                     "accuracy", "verify_tail_s", "method", "lead_time_s", "regularization", "robust"});
     scene.calibration = parse_calibration(f);
-    if (f.has("robust")) {
+    if (f.has("robust"))  // with either method (pipeline/robust.h)
         scene.robust = parse_robust(f);
-        if (scene.calibration->method == pipeline::DriveMethod::inverse_filter)
-            f.fail("robust", "the robust design is time reversal over the ensemble; it does not combine with "
-                             "method = \"inverse_filter\"");
-    }
 }
 
 void parse_tolerance_section(const toml::table &t, Scene &scene)
