@@ -116,7 +116,8 @@ void check_plates(const Plates &plates)
     for (const TransferMatrix *m : plates)
         if (!m || m->channels != H.channels || m->samples != H.samples || m->rate_hz != H.rate_hz ||
             m->point_count() != H.point_count() || m->exact_begin() != H.exact_begin())
-            throw std::invalid_argument("inverse filter: the stacked plates differ in channels, samples, rate or points");
+            throw std::invalid_argument(
+                "inverse filter: the stacked plates differ in channels, samples, rate or points");
 }
 
 }  // namespace
