@@ -239,13 +239,14 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
         const double amplitude = robust && !robust->amplitude_m.empty() ? robust->amplitude_m[f] : in.pulse.amplitude_m;
         requantize(res.signals[f], std::min(1.0, amplitude / res.full_scale_peak_m[f]), tro);
     }
-    res.verification = lti ? verify_signals_with(in, H, quantized(), in.calibration.output_rate_hz, progress)
-                           : verify_signals_forward(in, res.exciters, quantized(), in.calibration.output_rate_hz,
+    const std::vector<std::vector<int16_t>> stored = quantized();  // as the table holds them
+    res.verification = lti ? verify_signals_with(in, H, stored, in.calibration.output_rate_hz, progress)
+                           : verify_signals_forward(in, res.exciters, stored, in.calibration.output_rate_hz,
                                                     progress, true);
     // What a listener hears of each focus (pipeline/radiation.h): from H's lattice.
     if (lti && H.lattice.size() > 0) {
         const auto t1 = Clock::now();
-        const std::vector<RadiatedSound> sound = radiated_sounds(in, H, quantized(), in.calibration.output_rate_hz);
+        const std::vector<RadiatedSound> sound = radiated_sounds(in, H, stored, in.calibration.output_rate_hz);
         for (size_t f = 0; f < res.verification.foci.size() && f < sound.size(); f++) {
             res.verification.foci[f].sound_exposure_dba = sound[f].exposure_level_dba;
             res.verification.foci[f].sound = true;
