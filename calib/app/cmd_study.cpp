@@ -46,7 +46,7 @@ std::vector<double> parse_list(const std::string &s, const char *option, double 
 
 struct LatencyArgs {
     std::string scene, report, leads_ms, regs;
-    bool quiet = false, no_pairs = false, triples = false;
+    bool quiet = false, no_pairs = false, triples = false, joint = false;
 };
 
 int run_study_latency(const LatencyArgs &a)
@@ -62,13 +62,15 @@ int run_study_latency(const LatencyArgs &a)
     o.quiet = a.quiet;
     o.multitouch = !a.no_pairs;
     o.triples = a.triples && !a.no_pairs;
+    o.joint = a.joint && !a.no_pairs;
     const study::LatencyResult r = study::run_latency_study(a.scene, o, [&](const std::string &line) {
         if (!a.quiet)
             std::fprintf(stderr, "%s\n", line.c_str());
     });
     const std::string md = study::write_latency_report(r, a.report);
     std::printf("%s", md.c_str());
-    std::fprintf(stderr, "wrote %s/latency.{csv,svg,png,md} and latency-efficiency.svg\n", a.report.c_str());
+    std::fprintf(stderr, "wrote %s/latency.{csv,svg,png,md} and latency-efficiency.svg%s\n", a.report.c_str(),
+                 o.joint ? " (multitouch.csv, .svg, .png with joint designs)" : "");
     return 0;
 }
 
@@ -138,6 +140,9 @@ void register_study(CLI::App &app, int &exit_code)
     latency->add_option("--regularization", l->regs, "Inverse-filter regularizations to sweep (default: the scene's)");
     latency->add_flag("--no-pairs", l->no_pairs, "Skip the two-finger verification of every pair of foci");
     latency->add_flag("--triples", l->triples, "Verify every triple of foci (three fingers) too");
+    latency->add_flag("--joint", l->joint,
+                      "In the inverse filter's cases, design every pair (and triple) jointly too and compare it with "
+                      "the superposition (multitouch.csv, .svg, .png)");
     latency->add_flag("-q,--quiet", l->quiet, "No progress on stderr");
     latency->callback([l, &exit_code] { exit_code = run_study_latency(*l); });
     auto r = std::make_shared<study::RobustnessOptions>();

@@ -11,10 +11,20 @@
 // verification) and all times is the diffraction limit of the criterion: the
 // first sidelobe ring, near 0.6 lambda, which a monochromatic focus has at
 // 0.403 of the peak (J0's first extremum, -7.9 dB) and a short pulse lower,
-// its rings of different frequencies falling at different radii. It is the
-// reference an exciter layout and a drive design are measured against, not a
-// proven bound for every design (a non-isotropic focus trades its rings
-// between directions).
+// its rings of different frequencies falling at different radii.
+//
+// It bounds every field that puts the pulse itself at the focus, on the
+// radii whose circle around the focus lies in the judged area and a few
+// wavelengths from the plate's edges and the exciters. There, at each
+// frequency, the field is sum_n a_n J_n(k r) e^{i n theta} (the evanescent
+// I_n terms of the edges have decayed); only J0 is non-zero at r = 0, so the
+// focal waveform fixes a_0 = S, and the mean of w over the circle is the
+// ideal focus's w(r, t). |w| somewhere on the circle is at least that mean:
+// no exciter layout or drive design scores above this figure at such a focus
+// (tests/calib/test_focus_ceiling.cpp checks fields with random J_1..J_4
+// content). A focus closer to the area's edge than its ring can leave part
+// of the ring outside the judged area, and a focus of another waveform (more
+// high-frequency content) has another figure.
 #pragma once
 #include "pipeline/pulse.h"
 

@@ -136,15 +136,18 @@ InverseFilterDesign design_inverse_filter(const Plates &plates, const InverseFil
     const std::size_t C = H.channels, S = H.samples, J = p.drive_samples;
     if (C == 0 || S == 0 || J == 0 || p.target.empty())
         throw std::invalid_argument("inverse filter: empty problem (no exciters, samples, drive or target)");
-    if (p.focus >= H.point_count())
-        throw std::invalid_argument("inverse filter: focus point not in the transfer matrix");
+    if (p.foci.empty())
+        throw std::invalid_argument("inverse filter: no focus");
+    for (std::size_t f : p.foci)
+        if (f >= H.point_count())
+            throw std::invalid_argument("inverse filter: focus point not in the transfer matrix");
     if (!(o.regularization >= 0) || !(o.focus_weight > 0))
         throw std::invalid_argument("inverse filter: regularization must be >= 0 and the focus weight > 0");
     const std::size_t n = C * J;
 
-    // The data part of the normal matrix: the focus and the control points.
-    std::vector<std::size_t> points{p.focus};
-    std::vector<double> weights{o.focus_weight};
+    // The data part of the normal matrix: the foci and the control points.
+    std::vector<std::size_t> points = p.foci;
+    std::vector<double> weights(p.foci.size(), o.focus_weight);
     if (!p.control_weights.empty() && p.control_weights.size() != p.control.size())
         throw std::invalid_argument("inverse filter: one weight per control point");
     for (std::size_t i = 0; i < p.control.size(); i++) {
@@ -165,19 +168,20 @@ InverseFilterDesign design_inverse_filter(const Plates &plates, const InverseFil
                     G(Eigen::Index(d * J + jj), Eigen::Index(c * J + j)) = v;
                 }
 
-    // Right-hand side: W_f A_f^T d summed over the plates,
-    // b[(c,j)] = W_f sum_m sum_n h^m_cf[n] d[n + j].
+    // Right-hand side: W_f A_f^T d summed over the plates and the foci,
+    // b[(c,j)] = W_f sum_m sum_f sum_n h^m_cf[n] d[n + j].
     Eigen::VectorXd b = Eigen::VectorXd::Zero(Eigen::Index(n));
     for (const TransferMatrix *Hm : plates)
-        for (std::size_t c = 0; c < C; c++) {
-            const float *h = Hm->response(c, p.focus);
-            for (std::size_t j = 0; j < J; j++) {
-                double acc = 0;
-                for (std::size_t m = 0; m < S && m + j < p.target.size(); m++)
-                    acc += double(h[m]) * p.target[m + j];
-                b(Eigen::Index(c * J + j)) += o.focus_weight * acc;
+        for (std::size_t f : p.foci)
+            for (std::size_t c = 0; c < C; c++) {
+                const float *h = Hm->response(c, f);
+                for (std::size_t j = 0; j < J; j++) {
+                    double acc = 0;
+                    for (std::size_t m = 0; m < S && m + j < p.target.size(); m++)
+                        acc += double(h[m]) * p.target[m + j];
+                    b(Eigen::Index(c * J + j)) += o.focus_weight * acc;
+                }
             }
-        }
 
     InverseFilterDesign out;
     out.lambda_max = largest_eigenvalue(G);
@@ -217,10 +221,22 @@ InverseFilterDesign design_inverse_filter(const Plates &plates, const InverseFil
 
 std::vector<std::size_t> control_points(const CalibrationInput &in, const TransferMatrix &H, std::size_t f)
 {
-    const Point at = in.foci.points[f].at;
+    return control_points(in, H, std::vector<std::size_t>{f});
+}
+
+std::vector<std::size_t> control_points(const CalibrationInput &in, const TransferMatrix &H,
+                                        const std::vector<std::size_t> &set)
+{
     const double lambda_half = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
     const Rect &a = in.active.area;
-    auto far = [&](Point p) { return std::hypot(p.x_m - at.x_m, p.y_m - at.y_m) > lambda_half; };
+    auto far = [&](Point p) {
+        for (std::size_t f : set) {
+            const Point at = in.foci.points[f].at;
+            if (!(std::hypot(p.x_m - at.x_m, p.y_m - at.y_m) > lambda_half))
+                return false;
+        }
+        return true;
+    };
     std::vector<std::size_t> q;
     for (std::size_t n = 0; n < H.lattice.size(); n++) {
         const Point p = H.lattice.at(n);
@@ -228,7 +244,8 @@ std::vector<std::size_t> control_points(const CalibrationInput &in, const Transf
             q.push_back(n);
     }
     for (std::size_t g = 0; g < in.foci.points.size(); g++)
-        if (g != f && H.exact_begin() + g < H.point_count() && far(in.foci.points[g].at))
+        if (std::find(set.begin(), set.end(), g) == set.end() && H.exact_begin() + g < H.point_count() &&
+            far(in.foci.points[g].at))
             q.push_back(H.exact_begin() + g);
     return q;
 }
@@ -255,7 +272,7 @@ InverseFilterDesign minimax_design(const Plates &plates, InverseFilterProblem p,
         return design_inverse_filter(plates, p, o);
     check_plates(plates);
     std::vector<std::size_t> served = p.control;
-    served.push_back(p.focus);
+    served.insert(served.end(), p.foci.begin(), p.foci.end());
     const std::size_t Q = p.control.size();
     std::vector<std::unique_ptr<Playback>> pb;
     for (const TransferMatrix *Hm : plates)
@@ -266,14 +283,17 @@ InverseFilterDesign minimax_design(const Plates &plates, InverseFilterProblem p,
     for (int it = 0; it <= o.minimax_iterations; it++) {
         InverseFilterDesign d = design_inverse_filter(plates, p, o);
         // Per control point its largest |w| over time relative to its plate's
-        // focal peak, the largest over the plates (what the worst plate's
-        // contrast sees; a plate that is louder overall does not count as
-        // worse). One plate: |w| itself (the same weights, bit for bit).
+        // focal peak (the weakest focus's), the largest over the plates (what
+        // the worst plate's contrast sees; a plate that is louder overall does
+        // not count as worse). One plate: |w| itself (the same weights, bit
+        // for bit).
         std::vector<double> m(Q, 0.0);
         double worst = 0, focal = 1;
         for (const auto &play : pb) {
             const auto w = play->field(d.drive);
-            focal = sample_peak(w[Q].data(), w[Q].size());
+            focal = INFINITY;
+            for (std::size_t i = Q; i < w.size(); i++)
+                focal = std::min(focal, sample_peak(w[i].data(), w[i].size()));
             const double scale = pb.size() > 1 ? 1 / std::max(focal, 1e-300) : 1.0;
             for (std::size_t q = 0; q < Q; q++)
                 m[q] = std::max(m[q], sample_peak(w[q].data(), w[q].size()) * scale);
@@ -302,13 +322,18 @@ std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, con
     return inverse_filter_signals(in, Plates{&H});
 }
 
-std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const Plates &plates)
+namespace {
+
+// The scene's design of the foci `set` (indices into the scene's foci) over
+// `plates`, at full scale.
+DriveSignals scene_design(const CalibrationInput &in, const Plates &plates, const std::vector<std::size_t> &set,
+                          uint64_t dither_seed)
 {
-    check_plates(plates);
     const TransferMatrix &H = *plates.front();
     TimeReversalOptions tro;
     tro.output_rate_hz = in.calibration.output_rate_hz;
     tro.dither = in.calibration.dither;
+    tro.dither_seed = dither_seed;
     InverseFilterOptions o;
     o.regularization = in.calibration.regularization;
     o.band_edge_hz = pulse_max_frequency_hz(in.pulse);
@@ -318,19 +343,40 @@ std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, con
     p.target = focus_target(in, H.rate_hz, centre);
     const double delay = double(std::lround((centre - pulse_duration_s(in.pulse) / 2) * H.rate_hz)) / H.rate_hz +
                          pulse_duration_s(in.pulse) / 2;
+    for (std::size_t f : set)
+        p.foci.push_back(H.exact_begin() + f);
+    p.control = control_points(in, H, set);
+    InverseFilterDesign d = minimax_design(plates, p, o);
+    return finish_drive_signals(std::move(d.drive), H.rate_hz, delay, tro);
+}
+
+}  // namespace
+
+std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const Plates &plates)
+{
+    check_plates(plates);
     std::vector<DriveSignals> out;
     for (std::size_t f = 0; f < in.foci.points.size(); f++) {
-        p.focus = H.exact_begin() + f;
-        p.control = control_points(in, H, f);
         try {
-            InverseFilterDesign d = minimax_design(plates, p, o);
-            tro.dither_seed = in.exciters.seed * 1000003u + f;
-            out.push_back(finish_drive_signals(std::move(d.drive), H.rate_hz, delay, tro));
+            out.push_back(scene_design(in, plates, {f}, in.exciters.seed * 1000003u + f));
         } catch (const std::exception &e) {
             throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
         }
     }
     return out;
+}
+
+DriveSignals joint_inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H,
+                                          const std::vector<std::size_t> &set)
+{
+    std::string ids;
+    for (std::size_t f : set)
+        ids += (ids.empty() ? "" : "+") + std::to_string(in.foci.points.at(f).id);
+    try {
+        return scene_design(in, Plates{&H}, set, in.exciters.seed * 1000003u + 999983u);
+    } catch (const std::exception &e) {
+        throw std::runtime_error("foci " + ids + ": " + e.what());
+    }
 }
 
 }  // namespace calib::pipeline

@@ -84,7 +84,10 @@ struct InverseFilterOptions {
 };
 
 struct InverseFilterProblem {
-    std::size_t focus = 0;               // index into H.points
+    // Indices into H.points, each with the target d. One focus is the table's
+    // design; several are the joint design of a set (several fingers at
+    // once): minimise W_f sum_{f in F} sum_n (w_f[n] - d[n])^2 + the rest.
+    std::vector<std::size_t> foci;
     std::vector<std::size_t> control;    // indices into H.points, target zero
     std::vector<double> control_weights; // per control point (empty: 1 each)
     std::vector<double> target;          // d[n] at the focus from playback start, H's rate (zero after)
@@ -112,7 +115,9 @@ InverseFilterDesign design_inverse_filter(const Plates &plates, const InverseFil
                                           const InverseFilterOptions &options);
 
 // design_inverse_filter with the options' minimax refinement (the problem's
-// control weights are where it starts from: ignored, all 1).
+// control weights are where it starts from: ignored, all 1). With several
+// foci the design kept is the one with the best weakest focal peak over the
+// worst control point.
 InverseFilterDesign minimax_design(const TransferMatrix &H, InverseFilterProblem problem,
                                    const InverseFilterOptions &options);
 InverseFilterDesign minimax_design(const Plates &plates, InverseFilterProblem problem,
@@ -122,6 +127,9 @@ InverseFilterDesign minimax_design(const Plates &plates, InverseFilterProblem pr
 // in the active area and the other foci, farther than lambda/2 at the pulse
 // centre from it.
 std::vector<std::size_t> control_points(const CalibrationInput &in, const TransferMatrix &H, std::size_t f);
+// ... of a set of foci: farther than lambda/2 from every one of them.
+std::vector<std::size_t> control_points(const CalibrationInput &in, const TransferMatrix &H,
+                                        const std::vector<std::size_t> &set);
 
 // The pulse centred at `centre_s` from playback start, at H's rate.
 std::vector<double> focus_target(const CalibrationInput &in, double rate_hz, double centre_s);
@@ -132,5 +140,14 @@ std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, con
 // Stacked over plates (the nominal H first; the foci and the control points
 // are its).
 std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const Plates &plates);
+
+// The joint design of a set of foci (indices into the scene's foci; several
+// fingers at once): one drive with every foci row of the set targeting the
+// pulse at the scene's focus instant, the control points farther than
+// lambda/2 from all of them, the scene's lead time and regularization, at
+// full scale. A set of one is that focus's table design (but for the dither
+// seed).
+DriveSignals joint_inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H,
+                                          const std::vector<std::size_t> &set);
 
 }  // namespace calib::pipeline

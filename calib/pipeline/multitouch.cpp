@@ -1,6 +1,7 @@
 #include "pipeline/multitouch.h"
 
 #include "pipeline/calibrate.h"
+#include "pipeline/inverse_filter.h"
 #include "pipeline/peaks.h"
 #include "pipeline/playback.h"
 #include "pipeline/verification.h"
@@ -56,8 +57,14 @@ double mixer_gain(const std::vector<const std::vector<int16_t> *> &s, unsigned C
     return std::min({g_energy, g_peak, 1.0});
 }
 
+double SetVerdict::contrast_db() const
+{
+    return 20 * std::log10(std::max(min_focus_peak_m, 1e-300) / std::max(max_elsewhere_m, 1e-300));
+}
+
 MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMatrix &H,
-                                   const std::vector<std::vector<int16_t>> &signals, double rate_hz, bool triples)
+                                   const std::vector<std::vector<int16_t>> &signals, double rate_hz,
+                                   const MultiTouchOptions &options)
 {
     const std::size_t K = in.foci.points.size(), C = H.channels, L = H.lattice.size();
     const double lambda_half = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
@@ -70,15 +77,22 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
             if (!apart(a, b))
                 continue;
             sets.push_back({a, b});
-            for (std::size_t c = b + 1; triples && c < K; c++)
+            for (std::size_t c = b + 1; options.triples && c < K; c++)
                 if (apart(a, c) && apart(b, c))
                     sets.push_back({a, b, c});
         }
     MultiTouchReport rep;
     if (sets.empty())
         return rep;
+
+    // The joint designs first: the playback below serves the longest drive.
+    std::vector<std::vector<int16_t>> joint(options.joint ? sets.size() : 0);
+    for (std::size_t i = 0; i < joint.size(); i++)
+        joint[i] = joint_inverse_filter_signals(in, H, sets[i]).samples;
     std::size_t frames = 0;
     for (const auto &s : signals)
+        frames = std::max(frames, s.size() / C);
+    for (const auto &s : joint)
         frames = std::max(frames, s.size() / C);
     const std::size_t drive = static_cast<std::size_t>(std::ceil(double(frames) * H.rate_hz / rate_hz)) + 1;
     std::vector<std::size_t> served;
@@ -95,34 +109,45 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
     }
     Playback pb(H, served, drive,
                 drive + static_cast<std::size_t>(std::ceil(in.calibration.verify_tail_s * H.rate_hz)));
-    double worst_margin = INFINITY;
-    for (const auto &set : sets) {
-        MultiTouchCase mc;
-        mc.foci = set;
-        std::vector<const std::vector<int16_t> *> s;
-        for (std::size_t f : set)
-            s.push_back(&signals[f]);
-        mc.gain = mixer_gain(s, unsigned(C));
-        std::vector<float> mix(frames * C, 0.0f);
-        for (const auto *x : s)
-            for (std::size_t i = 0; i < x->size(); i++)
-                mix[i] += static_cast<float>(mc.gain * double((*x)[i]) / 32767.0);
-        const auto w = pb.field(drive_forces(in, H, mix, unsigned(C), rate_hz));
+
+    // The field of a mix ([frame][channel], full scale 1, `gain` applied),
+    // judged for the touched foci of `set`; with cap_at_amplitude the gain is
+    // first lowered, if need be, until no touched focus exceeds the scene's
+    // amplitude (the field is linear in it).
+    auto judge = [&](const std::vector<std::size_t> &set, const std::vector<float> &mix, double gain,
+                     bool cap_at_amplitude) {
+        auto w = pb.field(drive_forces(in, H, mix, unsigned(C), rate_hz));
+        SetVerdict v;
+        v.gain = gain;
+        for (float x : mix)
+            v.energy += double(x) * double(x) * 32767.0 * 32767.0;
+        if (cap_at_amplitude) {
+            double loudest = 0;
+            for (std::size_t f : set)
+                loudest = std::max(loudest, refined_peak(w[f]).value);
+            if (loudest > in.pulse.amplitude_m)  // the field is at `gain` already
+                v.gain = gain * in.pulse.amplitude_m / loudest;
+            const float k = static_cast<float>(v.gain / gain);
+            v.energy *= double(k) * double(k);
+            for (auto &x : w)
+                for (float &y : x)
+                    y *= k;
+        }
         auto far_from_all = [&](Point p) {
             for (std::size_t f : set)
                 if (distance(p, in.foci.points[f].at) <= lambda_half)
                     return false;
             return true;
         };
-        mc.min_focus_peak_m = INFINITY;
+        v.min_focus_peak_m = INFINITY;
         for (std::size_t f : set)
-            mc.min_focus_peak_m = std::min(mc.min_focus_peak_m, refined_peak(w[f]).value);
+            v.min_focus_peak_m = std::min(v.min_focus_peak_m, refined_peak(w[f]).value);
         for (std::size_t g = 0; g < K; g++)
             if (far_from_all(in.foci.points[g].at)) {
-                const double v = refined_peak(w[g]).value;
-                if (v > mc.max_elsewhere_m) {
-                    mc.max_elsewhere_m = v;
-                    mc.elsewhere_at = in.foci.points[g].at;
+                const double x = refined_peak(w[g]).value;
+                if (x > v.max_elsewhere_m) {
+                    v.max_elsewhere_m = x;
+                    v.elsewhere_at = in.foci.points[g].at;
                 }
             }
         for (std::size_t i = 0; i < lattice.size(); i++) {
@@ -130,23 +155,58 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
             if (!far_from_all(p))
                 continue;
             const std::vector<float> &x = w[K + i];
-            if (sample_peak(x.data(), x.size()) < 0.8 * mc.max_elsewhere_m)
+            if (sample_peak(x.data(), x.size()) < 0.8 * v.max_elsewhere_m)
                 continue;
-            const double v = refined_peak(x).value;
-            if (v > mc.max_elsewhere_m) {
-                mc.max_elsewhere_m = v;
-                mc.elsewhere_at = p;
+            const double y = refined_peak(x).value;
+            if (y > v.max_elsewhere_m) {
+                v.max_elsewhere_m = y;
+                v.elsewhere_at = p;
             }
         }
         const double thr = in.calibration.threshold_m;
-        mc.ok = mc.min_focus_peak_m >= thr && mc.max_elsewhere_m < thr;
-        mc.margin_m = std::min(mc.min_focus_peak_m - thr, thr - mc.max_elsewhere_m);
-        rep.failing += !mc.ok;
-        if (mc.margin_m < worst_margin) {
-            worst_margin = mc.margin_m;
+        v.ok = v.min_focus_peak_m >= thr && v.max_elsewhere_m < thr;
+        v.margin_m = std::min(v.min_focus_peak_m - thr, thr - v.max_elsewhere_m);
+        return v;
+    };
+    auto energy = [](const std::vector<int16_t> &x) {
+        double e = 0;
+        for (int16_t v : x)
+            e += double(v) * double(v);
+        return e;
+    };
+
+    double worst_margin = INFINITY;
+    for (std::size_t k = 0; k < sets.size(); k++) {
+        MultiTouchCase mc;
+        mc.foci = sets[k];
+        std::vector<const std::vector<int16_t> *> s;
+        double e_ref = 0;
+        for (std::size_t f : mc.foci) {
+            s.push_back(&signals[f]);
+            e_ref += energy(signals[f]) / double(mc.foci.size());
+        }
+        const double g = mixer_gain(s, unsigned(C));
+        std::vector<float> mix(frames * C, 0.0f);
+        for (const auto *x : s)
+            for (std::size_t i = 0; i < x->size(); i++)
+                mix[i] += static_cast<float>(g * double((*x)[i]) / 32767.0);
+        mc.superposed = judge(mc.foci, mix, g, false);
+        if (options.joint) {
+            const std::vector<int16_t> &x = joint[k];
+            const double e = energy(x);
+            const double gj = std::min(1.0, e > 0 ? std::sqrt(e_ref / e) : 0.0);
+            std::fill(mix.begin(), mix.end(), 0.0f);
+            for (std::size_t i = 0; i < x.size(); i++)
+                mix[i] = static_cast<float>(gj * double(x[i]) / 32767.0);
+            mc.joint = judge(mc.foci, mix, gj, true);
+            mc.has_joint = true;
+        }
+        rep.failing += !mc.superposed.ok;
+        if (mc.superposed.margin_m < worst_margin) {
+            worst_margin = mc.superposed.margin_m;
             rep.worst = rep.cases.size();
         }
-        rep.cases.push_back(mc);
+        rep.cases.push_back(std::move(mc));
     }
     return rep;
 }

@@ -8,6 +8,17 @@
 // default gain limit. The mix is played through H (playback.h) and read at
 // every time: each touched focus must reach the threshold, and nothing in
 // the active area farther than lambda/2 from every touched focus may.
+//
+// Against it, with the inverse filter, the joint design of the set
+// (inverse_filter.h: one drive, every touched focus a target row, the control
+// points beyond lambda/2 of all of them) under the same budget: the
+// superposition's energy E_ref, full scale, and no focus louder than the
+// scene's amplitude (the mixer's gain limit 1 keeps each focus at or below
+// its stored level):
+//   g_joint = min(sqrt(E_ref / E_joint), 1, amplitude / max_f peak_f),
+// the joint drive stored at full scale (E_joint its energy, peak_f its focal
+// peaks there). What a table of single foci loses against a drive made for
+// the set, per pair and triple.
 #pragma once
 #include "pipeline/placement.h"
 #include "pipeline/transfer.h"
@@ -19,21 +30,36 @@ namespace calib::pipeline {
 
 struct CalibrationInput;
 
-struct MultiTouchCase {
-    std::vector<std::size_t> foci;      // indices into the scene's foci
-    double gain = 0;                    // the firmware's g
+// One drive of a set played through H.
+struct SetVerdict {
+    double gain = 0;                    // the firmware's g (superposition) or g_joint
+    double energy = 0;                  // of the drive played, counts^2 (full scale 32767)
     double min_focus_peak_m = 0;        // the weakest touched focus
     double max_elsewhere_m = 0;         // largest |w| beyond lambda/2 of every touched focus, all times
     Point elsewhere_at;
     // min(weakest focus - threshold, threshold - max elsewhere): > 0 when ok.
     double margin_m = 0;
     bool ok = false;                    // every touched focus crosses, nothing else does
+    // Weakest focus over max elsewhere (dB): the set's contrast.
+    double contrast_db() const;
+};
+
+struct MultiTouchCase {
+    std::vector<std::size_t> foci;      // indices into the scene's foci
+    SetVerdict superposed;              // the firmware's mix of the stored foci
+    bool has_joint = false;
+    SetVerdict joint;                   // the set's joint inverse filter (MultiTouchOptions::joint)
 };
 
 struct MultiTouchReport {
     std::vector<MultiTouchCase> cases;
-    std::size_t worst = 0;              // least margin_m
-    std::size_t failing = 0;
+    std::size_t worst = 0;              // least superposed margin_m
+    std::size_t failing = 0;            // superposed
+};
+
+struct MultiTouchOptions {
+    bool triples = false;               // every triple of foci >= lambda/2 apart too
+    bool joint = false;                 // design each set jointly too (the inverse filter)
 };
 
 // The firmware's gain for a set of stored foci ([n][c] int16 counts).
@@ -43,6 +69,6 @@ double mixer_gain(const std::vector<const std::vector<int16_t> *> &signals, unsi
 // such triple), the stored signals at rate_hz.
 MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMatrix &H,
                                    const std::vector<std::vector<int16_t>> &signals, double rate_hz,
-                                   bool triples = false);
+                                   const MultiTouchOptions &options = {});
 
 }  // namespace calib::pipeline

@@ -39,7 +39,7 @@ std::string read_scene(const std::string &path)
 
 // One case on the shared H: the drives, their level, the verification.
 void run_case(const pipeline::CalibrationInput &base, const pipeline::TransferMatrix &H,
-              const std::vector<pipeline::Point> &exciters, bool multitouch, bool triples, LatencyRow &row)
+              const std::vector<pipeline::Point> &exciters, const LatencyOptions &o, LatencyRow &row)
 {
     pipeline::CalibrationInput in = base;
     in.calibration.method = row.method;
@@ -77,29 +77,50 @@ void run_case(const pipeline::CalibrationInput &base, const pipeline::TransferMa
     row.max_sound_dba = -INFINITY;
     for (const pipeline::RadiatedSound &snd : pipeline::radiated_sounds(in, H, stored, in.calibration.output_rate_hz))
         row.max_sound_dba = std::max(row.max_sound_dba, snd.exposure_level_dba);
-    if (!multitouch)
+    if (!o.multitouch)
         return;
-    const pipeline::MultiTouchReport mt =
-        pipeline::verify_multitouch(in, H, stored, in.calibration.output_rate_hz, triples);
+    pipeline::MultiTouchOptions mo;
+    mo.triples = o.triples;
+    mo.joint = o.joint && row.method == pipeline::DriveMethod::inverse_filter;
+    pipeline::MultiTouchReport mt = pipeline::verify_multitouch(in, H, stored, in.calibration.output_rate_hz, mo);
     const pipeline::MultiTouchCase *worst_pair = nullptr, *worst_triple = nullptr;
     for (const pipeline::MultiTouchCase &c : mt.cases) {
         const bool pair = c.foci.size() == 2;
         (pair ? row.pairs : row.triples)++;
-        (pair ? row.pairs_failing : row.triples_failing) += !c.ok;
+        (pair ? row.pairs_failing : row.triples_failing) += !c.superposed.ok;
         const pipeline::MultiTouchCase *&w = pair ? worst_pair : worst_triple;
-        if (!w || c.margin_m < w->margin_m)
+        if (!w || c.superposed.margin_m < w->superposed.margin_m)
             w = &c;
     }
     if (worst_pair) {
         for (int i = 0; i < 2; i++)
             row.worst_pair[i] = in.foci.points[worst_pair->foci[std::size_t(i)]].id;
-        row.worst_pair_margin_m = worst_pair->margin_m;
+        row.worst_pair_margin_m = worst_pair->superposed.margin_m;
     }
     if (worst_triple) {
         for (int i = 0; i < 3; i++)
             row.worst_triple[i] = in.foci.points[worst_triple->foci[std::size_t(i)]].id;
-        row.worst_triple_margin_m = worst_triple->margin_m;
+        row.worst_triple_margin_m = worst_triple->superposed.margin_m;
     }
+    row.sets = std::move(mt.cases);
+}
+
+// ", triples failing a/b" and the joint designs' counts, when there are any.
+std::string sets_line(const LatencyRow &row)
+{
+    std::string s;
+    if (row.triples)
+        s += ", triples failing " + std::to_string(row.triples_failing) + "/" + std::to_string(row.triples);
+    std::size_t pairs = 0, triples = 0, joint = 0;
+    for (const pipeline::MultiTouchCase &c : row.sets)
+        if (c.has_joint) {
+            joint++;
+            (c.foci.size() == 2 ? pairs : triples) += !c.joint.ok;
+        }
+    if (joint)
+        s += "; joint designs failing: " + std::to_string(pairs) + " pairs" +
+             (row.triples ? ", " + std::to_string(triples) + " triples" : std::string());
+    return s;
 }
 
 }  // namespace
@@ -124,6 +145,8 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
     res.scene_file = path;
     res.scene_name = in.scene_name;
     res.threshold_m = in.calibration.threshold_m;
+    for (const auto &f : in.foci.points)
+        res.focus_ids.push_back(f.id);
     try {
         pipeline::check_feasible(in);
     } catch (const std::invalid_argument &e) {
@@ -179,7 +202,7 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
     for (LatencyRow &row : cases) {
         t0 = Clock::now();
         try {
-            run_case(in, H, res.exciters, o.multitouch, o.triples, row);
+            run_case(in, H, res.exciters, o, row);
         } catch (const std::exception &e) {
             row.error = e.what();
         }
@@ -191,8 +214,8 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
             (row.error.empty() ? "worst whole-area " + io::fmt("%.1f dB", row.worst_whole_area_db) + ", margin " +
                                      io::fmt("%.2f um", row.margin_m * 1e6) + ", lead " +
                                      io::fmt("%.1f ms", row.lead_measured_s * 1e3) + ", pairs failing " +
-                                     std::to_string(row.pairs_failing) + "/" + std::to_string(row.pairs) + ", " +
-                                     io::fmt("%.1f s", row.seconds)
+                                     std::to_string(row.pairs_failing) + "/" + std::to_string(row.pairs) +
+                                     sets_line(row) + ", " + io::fmt("%.1f s", row.seconds)
                                : "failed: " + row.error));
         res.rows.push_back(row);
     }

@@ -8,6 +8,7 @@
 // holds the Fig. 7 results.
 #pragma once
 #include "pipeline/focus_ceiling.h"
+#include "pipeline/multitouch.h"
 #include "pipeline/placement.h"
 #include "pipeline/spec.h"
 
@@ -23,6 +24,9 @@ struct LatencyOptions {
     std::vector<double> regularizations;  // empty: the scene's
     bool multitouch = true;               // verify every pair of foci too
     bool triples = false;                 // ... and every triple of foci >= lambda/2 apart
+    // ... and, in the inverse filter's cases, each of those sets designed
+    // jointly under the superposition's budget (pipeline/multitouch.h)
+    bool joint = false;
     bool quiet = false;
 };
 
@@ -50,6 +54,7 @@ struct LatencyRow {
     uint32_t worst_triple[3] = {0, 0, 0};
     double worst_triple_margin_m = 0;
     double max_sound_dba = 0;            // loudest focus: L_AE on axis at 0.5 m (pipeline/radiation.h)
+    std::vector<pipeline::MultiTouchCase> sets;  // every pair (and triple) verified, superposed (and joint)
     double seconds = 0;                  // design and verification wall time
     std::string error;                   // a case that failed (refused lead time, ...)
 };
@@ -63,6 +68,7 @@ struct LatencyResult {
     // by forming a round focus.
     pipeline::FocusCeiling ceiling;
     std::vector<pipeline::Point> exciters;
+    std::vector<uint32_t> focus_ids;     // the scene's, by index
     double transfer_s = 0, placement_s = 0;
     std::vector<LatencyRow> rows;
 };
@@ -73,7 +79,9 @@ LatencyResult run_latency_study(const std::string &scene_path, const LatencyOpti
 
 // DIR/latency.csv, DIR/latency.svg, .png (worst whole-area contrast against
 // lead time), DIR/latency-efficiency.svg (focal peak per root drive energy),
-// DIR/latency.md; returns the markdown.
+// DIR/latency.md; with joint designs also DIR/multitouch.csv (every set of
+// every case) and DIR/multitouch.svg, .png (joint against superposed margin,
+// per set), their table in latency.md. Returns the markdown.
 std::string write_latency_report(const LatencyResult &r, const std::string &dir);
 
 }  // namespace calib::study

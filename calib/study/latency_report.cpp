@@ -44,6 +44,98 @@ void add_curves(report::Plot &p, const LatencyResult &r, double (*get)(const Lat
         p.add(std::move(c.second));
 }
 
+// Medians of a list (NaN when empty).
+double median(std::vector<double> v)
+{
+    if (v.empty())
+        return NAN;
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
+}
+
+std::string ids(const std::vector<std::size_t> &set, const std::vector<uint32_t> &id_of)
+{
+    std::string s;
+    for (std::size_t f : set)
+        s += (s.empty() ? "" : "+") + std::to_string(id_of[f]);
+    return s;
+}
+
+// The joint designs against the superposition: every set of every case in
+// multitouch.csv, a scatter of the margins, a summary table (markdown).
+std::string write_joint(const LatencyResult &r, const std::string &dir)
+{
+    std::ostringstream csv, md;
+    csv << "method,regularization,scene_default_lead,lead_time_target_s,foci,design,gain,weakest_focus_m,"
+           "max_elsewhere_m,elsewhere_x_m,elsewhere_y_m,margin_m,ok,set_contrast_db\n";
+    md << "\n**Several fingers: the table's single foci superposed (the firmware's mix) against a drive designed "
+          "for the set** (the inverse filter with every touched focus a target, the same lead time and "
+          "regularization, under the superposition's budget: its energy, full scale, no focus above the "
+          "scene's amplitude; pipeline/multitouch.h). Gains are medians over the sets, joint minus superposed.\n\n"
+       << "| case | sets | failing: superposed | failing: joint | worst margin (um): superposed | worst margin "
+          "(um): joint | weakest focus gain (dB) | set contrast gain (dB) | sets the joint design rescues | "
+          "sets it loses |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    report::Plot p;
+    p.title = r.scene_name + ": several fingers, joint design against superposition";
+    p.x = {"superposed: margin under threshold (um)"};
+    p.y = {"joint design: margin under threshold (um)"};
+    p.legend = report::LegendPosition::bottom_right;
+    double lo = INFINITY, hi = -INFINITY;
+    bool any = false;
+    for (const LatencyRow &x : r.rows) {
+        const std::string lead = fmt("%.0f ms", x.lead_target_s * 1e3) + (x.scene_default ? " (scene)" : "");
+        for (std::size_t size : {2u, 3u}) {
+            std::size_t n = 0, fail_s = 0, fail_j = 0, rescued = 0, lost = 0;
+            double worst_s = INFINITY, worst_j = INFINITY;
+            std::vector<double> peak_gain, contrast_gain;
+            report::Series dots(std::string(size == 2 ? "pairs" : "triples") + ", " + lead, {}, {},
+                                report::LineStyle::none);
+            dots.markers = true;
+            for (const pipeline::MultiTouchCase &c : x.sets) {
+                if (!c.has_joint || c.foci.size() != size)
+                    continue;
+                n++;
+                for (const auto *v : {&c.superposed, &c.joint}) {
+                    csv << name(x.method) << ',' << x.regularization << ',' << (x.scene_default ? 1 : 0) << ','
+                        << x.lead_target_s << ',' << ids(c.foci, r.focus_ids) << ','
+                        << (v == &c.joint ? "joint" : "superposed") << ',' << v->gain << ',' << v->min_focus_peak_m
+                        << ',' << v->max_elsewhere_m << ',' << v->elsewhere_at.x_m << ',' << v->elsewhere_at.y_m
+                        << ',' << v->margin_m << ',' << (v->ok ? 1 : 0) << ',' << v->contrast_db() << '\n';
+                }
+                fail_s += !c.superposed.ok;
+                fail_j += !c.joint.ok;
+                rescued += !c.superposed.ok && c.joint.ok;
+                lost += c.superposed.ok && !c.joint.ok;
+                worst_s = std::min(worst_s, c.superposed.margin_m);
+                worst_j = std::min(worst_j, c.joint.margin_m);
+                peak_gain.push_back(20 * std::log10(c.joint.min_focus_peak_m / c.superposed.min_focus_peak_m));
+                contrast_gain.push_back(c.joint.contrast_db() - c.superposed.contrast_db());
+                dots.x.push_back(c.superposed.margin_m * 1e6);
+                dots.y.push_back(c.joint.margin_m * 1e6);
+                lo = std::min({lo, c.superposed.margin_m * 1e6, c.joint.margin_m * 1e6});
+                hi = std::max({hi, c.superposed.margin_m * 1e6, c.joint.margin_m * 1e6});
+            }
+            if (!n)
+                continue;
+            any = true;
+            p.add(std::move(dots));
+            md << "| inverse filter, eps " << fmt("%g", x.regularization) << ", " << lead << ", "
+               << (size == 2 ? "pairs" : "triples") << " | " << n << " | " << fail_s << " | " << fail_j << " | "
+               << fmt("%+.2f", worst_s * 1e6) << " | " << fmt("%+.2f", worst_j * 1e6) << " | "
+               << fmt("%+.2f", median(peak_gain)) << " | " << fmt("%+.2f", median(contrast_gain)) << " | " << rescued
+               << " | " << lost << " |\n";
+        }
+    }
+    if (!any)
+        return {};
+    p.add(report::Series("joint = superposed", {lo, hi}, {lo, hi}, report::LineStyle::dashed));
+    io::write_file_atomic(dir + "/multitouch.csv", csv.str());
+    report::write_plot(p, dir + "/multitouch.svg");
+    report::write_plot(p, dir + "/multitouch.png");
+    return md.str();
+}
+
 }  // namespace
 
 std::string write_latency_report(const LatencyResult &r, const std::string &dir)
@@ -131,6 +223,7 @@ std::string write_latency_report(const LatencyResult &r, const std::string &dir)
                          : std::string("-"))
            << " | " << fmt("%.1f", x.max_sound_dba) << " |\n";
     }
+    md << write_joint(r, dir);
     io::write_file_atomic(dir + "/latency.md", md.str());
     return md.str();
 }

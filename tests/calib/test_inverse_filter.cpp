@@ -71,9 +71,9 @@ std::vector<double> play(const pipeline::TransferMatrix &H, const std::vector<st
 }
 
 struct Residual {
-    double relative = 0;      // || A s - d || / || d || over the focus and control rows
+    double relative = 0;      // || A s - d || / || d || over the foci and control rows
     double drive_norm = 0;    // || s ||
-    double correlation = 0;   // <w_f, d> / || s ||
+    double correlation = 0;   // sum over the foci of <w_f, d> / || s ||
 };
 
 Residual residual_of(const pipeline::TransferMatrix &H, const pipeline::InverseFilterProblem &p,
@@ -82,12 +82,14 @@ Residual residual_of(const pipeline::TransferMatrix &H, const pipeline::InverseF
     const std::size_t out = p.drive_samples + H.samples - 1;
     Residual r;
     double err = 0, dd = 0;
-    const std::vector<double> wf = play(H, s, p.focus, out);
-    for (std::size_t n = 0; n < out; n++) {
-        const double d = n < p.target.size() ? p.target[n] : 0.0;
-        err += (wf[n] - d) * (wf[n] - d);
-        dd += d * d;
-        r.correlation += wf[n] * d;
+    for (std::size_t f : p.foci) {
+        const std::vector<double> wf = play(H, s, f, out);
+        for (std::size_t n = 0; n < out; n++) {
+            const double d = n < p.target.size() ? p.target[n] : 0.0;
+            err += (wf[n] - d) * (wf[n] - d);
+            dd += d * d;
+            r.correlation += wf[n] * d;
+        }
     }
     for (std::size_t q : p.control)
         for (double v : play(H, s, q, out))
@@ -138,7 +140,7 @@ TEST(InverseFilter, UnregularisedInverseIsExactWithFewerPointsThanExcitersAndLon
     o.regularization = 0;
     for (std::size_t Q : {2u, 3u}) {  // the focus and Q - 1 control points
         pipeline::InverseFilterProblem p;
-        p.focus = 0;
+        p.foci = {0};
         for (std::size_t q = 1; q < Q; q++)
             p.control.push_back(q);
         p.drive_samples = (Q * (S - 1) + (C - Q) - 1) / (C - Q) + 1;  // the MINT length, rounded up
@@ -158,7 +160,7 @@ TEST(InverseFilter, RegularisationTradesResidualForDriveAndTendsToTheMatchedFilt
     const pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "inverse.toml");
     const pipeline::TransferMatrix H = short_transfer(in, 96);
     pipeline::InverseFilterProblem p;
-    p.focus = 0;
+    p.foci = {0};
     p.control = {1, 2, 3};
     p.drive_samples = 40;  // far below the exact length: a true trade
     p.target = pipeline::focus_target(in, H.rate_hz, 36.0 / H.rate_hz);
@@ -185,7 +187,7 @@ TEST(InverseFilter, RegularisationTradesResidualForDriveAndTendsToTheMatchedFilt
     // The large-weight limit: s -> A_f^T d / beta, the matched filter, by a direct loop.
     std::vector<double> mf, big;
     for (std::size_t c = 0; c < H.channels; c++) {
-        const float *h = H.response(c, p.focus);
+        const float *h = H.response(c, p.foci.front());
         for (std::size_t j = 0; j < p.drive_samples; j++) {
             double acc = 0;
             for (std::size_t m = 0; m < H.samples && m + j < p.target.size(); m++)
@@ -360,6 +362,162 @@ TEST(MultiTouch, MixerGainHoldsTheMeanSingleFocusEnergyAndNeverClips)
     std::vector<int16_t> loud2(512, 0);
     loud2[20 * C] = 30000;  // same block, same channel, orthogonal in time: energy 1/sqrt(2), peak 32767/60000
     EXPECT_NEAR(pipeline::mixer_gain({&loud, &loud2}, C), 32767.0 / 60000.0, 1e-12);
+}
+
+TEST(JointDesign, UnregularisedJointInverseIsExactAtEveryFocusOfTheSet)
+{
+    // Two foci of a set and one control point: Q = 3 rows, C = 4 exciters, so
+    // MINT's exact FIR inverse exists at J >= Q (S - 1) / (C - Q) and both
+    // foci get the pulse, the control point nothing, to solver precision.
+    const pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "inverse.toml");
+    const std::size_t S = 40, C = 4, Q = 3;
+    const pipeline::TransferMatrix H = short_transfer(in, S);
+    pipeline::InverseFilterOptions o;
+    o.regularization = 0;
+    pipeline::InverseFilterProblem p;
+    p.foci = {0, 3};
+    p.control = {1};
+    p.drive_samples = (Q * (S - 1) + (C - Q) - 1) / (C - Q) + 1;
+    p.target = pipeline::focus_target(in, H.rate_hz, double(p.drive_samples) / H.rate_hz);
+    const auto d = pipeline::design_inverse_filter(H, p, o).drive;
+    EXPECT_LT(residual_of(H, p, d).relative, 1e-6);
+    // Each focus alone by direct convolution: the pulse, both of them.
+    const std::size_t out = p.drive_samples + S - 1;
+    double dd = 0;
+    for (double v : p.target)
+        dd += v * v;
+    for (std::size_t f : p.foci) {
+        const std::vector<double> w = play(H, d, f, out);
+        double err = 0;
+        for (std::size_t n = 0; n < out; n++) {
+            const double t = n < p.target.size() ? p.target[n] : 0.0;
+            err += (w[n] - t) * (w[n] - t);
+        }
+        EXPECT_LT(std::sqrt(err / dd), 1e-6) << "focus " << f;
+    }
+    // Not vacuous: the same drive length with a fourth row is overdetermined.
+    p.control = {1, 2};
+    EXPECT_GT(residual_of(H, p, pipeline::design_inverse_filter(H, p, o).drive).relative, 1e-2);
+}
+
+TEST(JointDesign, LeastSquaresOfASetIsTheSumOfItsSingleDesigns)
+{
+    // The normal equations are linear in the target: with the same rows (the
+    // two foci and two control points, weight 1 each), G and beta are the
+    // same for the set and for each single focus (whose control points
+    // include the other focus), and b of the set is the sum of the singles'.
+    // So the set's design is the sum of the single designs: what a joint
+    // design adds over the firmware's superposition is its own control
+    // points, its own minimax weights and its level, not the least squares.
+    const pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "inverse.toml");
+    const pipeline::TransferMatrix H = short_transfer(in, 96);
+    pipeline::InverseFilterOptions o;
+    o.regularization = 1e-4;
+    o.minimax_iterations = 0;
+    pipeline::InverseFilterProblem joint;
+    joint.foci = {0, 3};
+    joint.control = {1, 2};
+    joint.drive_samples = 40;
+    joint.target = pipeline::focus_target(in, H.rate_hz, 36.0 / H.rate_hz);
+    const pipeline::InverseFilterDesign dj = pipeline::design_inverse_filter(H, joint, o);
+    std::vector<std::vector<double>> sum(H.channels, std::vector<double>(joint.drive_samples, 0.0));
+    for (std::size_t f : joint.foci) {
+        pipeline::InverseFilterProblem one = joint;
+        one.foci = {f};
+        one.control = {1, 2, f == 0 ? 3u : 0u};
+        const pipeline::InverseFilterDesign d = pipeline::design_inverse_filter(H, one, o);
+        EXPECT_NEAR(d.beta, dj.beta, 1e-9 * dj.beta);
+        for (std::size_t c = 0; c < H.channels; c++)
+            for (std::size_t j = 0; j < joint.drive_samples; j++)
+                sum[c][j] += d.drive[c][j];
+    }
+    double diff = 0, norm = 0;
+    for (std::size_t c = 0; c < H.channels; c++)
+        for (std::size_t j = 0; j < joint.drive_samples; j++) {
+            diff += (dj.drive[c][j] - sum[c][j]) * (dj.drive[c][j] - sum[c][j]);
+            norm += dj.drive[c][j] * dj.drive[c][j];
+        }
+    EXPECT_LT(std::sqrt(diff / norm), 1e-8);
+
+    // And the set's design is the minimum of its objective, by direct
+    // convolution: || A s - d ||^2 over both foci and the controls plus
+    // beta || s ||^2 (s at the solver's scale, drive / R) is stationary
+    // there (no first-order change along a seeded direction) and larger on
+    // either side.
+    double dd = 0;
+    for (double v : joint.target)
+        dd += v * v;
+    auto objective = [&](const std::vector<std::vector<double>> &s) {
+        const Residual r = residual_of(H, joint, s);
+        const double n = r.drive_norm / H.rate_hz;
+        return r.relative * r.relative * dd * double(joint.foci.size()) + dj.beta * n * n;
+    };
+    std::vector<std::vector<double>> plus = dj.drive, minus = dj.drive;
+    for (std::size_t c = 0; c < H.channels; c++)
+        for (std::size_t j = 0; j < joint.drive_samples; j++) {
+            const double v = 0.05 * std::sqrt(norm / double(H.channels * joint.drive_samples)) *
+                             std::sin(1.7 * double(j) + 2.3 * double(c) + 0.4);
+            plus[c][j] += v;
+            minus[c][j] -= v;
+        }
+    const double j0 = objective(dj.drive), jp = objective(plus), jm = objective(minus);
+    EXPECT_GT(jp, j0);
+    EXPECT_GT(jm, j0);
+    EXPECT_LT(std::abs(jp - jm), 1e-4 * (jp + jm - 2 * j0));
+}
+
+TEST(JointDesign, PairsAndTriplesKeepTheSuperpositionsBudget)
+{
+    // Every pair and triple of the 2 x 2 foci, superposed and designed
+    // jointly: the mix never has more energy than the mean of its foci alone
+    // (the firmware's normalisation), neither has the joint drive, no touched
+    // focus of the joint drive exceeds the scene's amplitude, and a set of
+    // one designed jointly is the table's design.
+    pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "inverse.toml");
+    in.calibration.dither = false;
+    in.calibration.lead_time_s = 0.006;
+    in.calibration.method = pipeline::DriveMethod::inverse_filter;
+    const pipeline::TransferMatrix H = pipeline::transfer_for(in, in.exciters.positions);
+    pipeline::CalibrationResult r;
+    r.exciters = in.exciters.positions;
+    pipeline::signals_and_verification(in, H, {}, r);
+    std::vector<std::vector<int16_t>> stored;
+    std::vector<double> energy;
+    for (const auto &d : r.signals) {
+        stored.push_back(d.samples);
+        double e = 0;
+        for (int16_t v : d.samples)
+            e += double(v) * double(v);
+        energy.push_back(e);
+    }
+    const auto single = pipeline::joint_inverse_filter_signals(in, H, {1});
+    const auto table = pipeline::inverse_filter_signals(in, H);
+    ASSERT_EQ(single.normalized.size(), table[1].normalized.size());
+    for (std::size_t i = 0; i < single.normalized.size(); i++)
+        ASSERT_EQ(single.normalized[i], table[1].normalized[i]) << i;
+
+    pipeline::MultiTouchOptions mo;
+    mo.triples = mo.joint = true;
+    const pipeline::MultiTouchReport rep =
+        pipeline::verify_multitouch(in, H, stored, in.calibration.output_rate_hz, mo);
+    std::size_t pairs = 0, triples = 0;
+    for (const pipeline::MultiTouchCase &c : rep.cases) {
+        ASSERT_TRUE(c.has_joint);
+        (c.foci.size() == 2 ? pairs : triples)++;
+        double e_ref = 0;
+        for (std::size_t f : c.foci)
+            e_ref += energy[f] / double(c.foci.size());
+        EXPECT_LE(c.superposed.energy, e_ref * (1 + 1e-6));
+        EXPECT_LE(c.joint.energy, e_ref * (1 + 1e-6));
+        EXPECT_LE(c.joint.gain, 1.0);
+        EXPECT_GT(c.joint.min_focus_peak_m, 0.0);
+        EXPECT_LE(c.joint.min_focus_peak_m, in.pulse.amplitude_m * (1 + 1e-6));
+        EXPECT_EQ(c.superposed.ok, c.superposed.min_focus_peak_m >= in.calibration.threshold_m &&
+                                       c.superposed.max_elsewhere_m < in.calibration.threshold_m);
+    }
+    // 2 x 2 foci more than lambda/2 (36 mm) apart: all 6 pairs, all 4 triples.
+    EXPECT_EQ(pairs, 6u);
+    EXPECT_EQ(triples, 4u);
 }
 
 TEST(Radiation, SmallBaffledPistonAndATone)

@@ -47,7 +47,7 @@ pipeline::InverseFilterProblem problem_of(const pipeline::CalibrationInput &in, 
     pipeline::InverseFilterProblem p;
     p.drive_samples = static_cast<std::size_t>(std::floor(pipeline::target_lead_time_s(in) * H.rate_hz + 1e-9)) + 1;
     p.target = pipeline::focus_target(in, H.rate_hz, pipeline::focus_centre_s(in));
-    p.focus = H.exact_begin() + f;
+    p.foci = {H.exact_begin() + f};
     p.control = pipeline::control_points(in, H, f);
     return p;
 }
@@ -76,7 +76,7 @@ Score score(const Plates &plates, const pipeline::InverseFilterProblem &p, const
             double beta)
 {
     std::vector<std::size_t> served = p.control;
-    served.push_back(p.focus);
+    served.push_back(p.foci.front());
     const std::size_t Q = p.control.size(), out = p.drive_samples + plates.front()->samples - 1;
     Score r;
     double worst = 0, focal = std::numeric_limits<double>::infinity();
