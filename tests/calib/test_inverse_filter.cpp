@@ -6,14 +6,13 @@
 // the weight), the large-weight limit (the matched filter A^T d, time reversal
 // up to scale), Cauchy-Schwarz (the matched filter maximises the focus's
 // correlation with the pulse per root drive energy); the lead time honoured
-// by both methods, the drive energy of a hand-computed signal, and the
-// refusal of bad input naming its key.
+// by both methods and the refusal of bad input naming its key; a set of foci
+// designed jointly: exact by MINT, and the sum of its single designs by the
+// linearity of the normal equations.
 #include "pipeline/calibrate.h"
 #include "pipeline/calibrate_stages.h"
-#include "pipeline/drive_figures.h"
 #include "pipeline/inverse_filter.h"
 #include "pipeline/lead_time.h"
-#include "pipeline/multitouch.h"
 #include "pipeline/playback.h"
 #include "pipeline/radiation.h"
 #include "pipeline/verification.h"
@@ -129,7 +128,6 @@ double best_correlation(const std::vector<double> &a, const std::vector<double> 
 }
 
 }  // namespace
-
 TEST(InverseFilter, UnregularisedInverseIsExactWithFewerPointsThanExcitersAndLongEnoughDrives)
 {
     const pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "inverse.toml");
@@ -273,27 +271,6 @@ TEST(InverseFilter, BothMethodsMeetTheLeadTimeAndTheLargeWeightLimitIsTimeRevers
         EXPECT_GT(best_correlation(limit[f].normalized, trs[f].normalized, limit[f].channels, 48), 0.97) << f;
 }
 
-TEST(InverseFilter, DriveEnergyAndOutOfBandFractionOfHandComputedSignals)
-{
-    const pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "inverse.toml");
-    const double rate = 48000, edge = pipeline::pulse_max_frequency_hz(in.pulse);
-    const unsigned C = 2;
-    const std::size_t n = 4800;  // 0.1 s: whole periods of both tones below
-    // Channel 0: 1200 Hz (in band) at 10000 counts; channel 1: silent, then a tone above the band.
-    const double f_hi = 480 * std::ceil(1.5 * edge / 480);
-    std::vector<int16_t> s(n * C, 0);
-    for (std::size_t i = 0; i < n; i++) {
-        s[i * C] = static_cast<int16_t>(std::lround(10000 * std::sin(2 * std::numbers::pi * 1200 * double(i) / rate)));
-        s[i * C + 1] = static_cast<int16_t>(std::lround(5000 * std::sin(2 * std::numbers::pi * f_hi * double(i) / rate)));
-    }
-    const pipeline::DriveFigures d = pipeline::drive_figures(in, s, C, rate, 2e-6);
-    const double F = 0.5 / 32767;  // N per count
-    const double e0 = 0.5 * (10000 * F) * (10000 * F) * 0.1, e1 = 0.5 * (5000 * F) * (5000 * F) * 0.1;
-    EXPECT_NEAR(d.energy_n2s, e0 + e1, 1e-3 * (e0 + e1));  // rounding to counts only
-    EXPECT_NEAR(d.out_of_band_fraction, e1 / (e0 + e1), 1e-3);
-    EXPECT_NEAR(d.peak_per_root_energy, 2e-6 / std::sqrt(e0 + e1), 1e-3 * 2e-6 / std::sqrt(e0 + e1));
-}
-
 TEST(InverseFilter, BadInputIsRefusedNamingTheKey)
 {
     auto scene_error = [](const std::string &text) {
@@ -339,29 +316,6 @@ TEST(InverseFilter, BadInputIsRefusedNamingTheKey)
         refusal(replace(base, "verify_tail_s = 0.01", "verify_tail_s = 0.01\nlead_time_s = 0.0399"));
     EXPECT_EQ(long_lead.rfind("calibration.lead_time_s: ", 0), 0u) << long_lead;
     EXPECT_NE(long_lead.find("calibration.window_s"), std::string::npos) << long_lead;
-}
-
-TEST(MultiTouch, MixerGainHoldsTheMeanSingleFocusEnergyAndNeverClips)
-{
-    // Two channels, 256 frames. a and b: equal energy, orthogonal (different
-    // channels): E_sum = 2 E, E_ref = E, g = 1/sqrt(2). a with itself: the sum
-    // is 2a, E_sum = 4 E, g = 1/2. A loud pair whose sum would clip: the peak
-    // bound (64-frame blocks, sum of block peaks) wins.
-    const unsigned C = 2;
-    std::vector<int16_t> a(512, 0), b(512, 0), loud(512, 0);
-    for (std::size_t n = 0; n < 256; n++) {
-        a[n * C] = static_cast<int16_t>(n % 2 ? 1000 : -1000);
-        b[n * C + 1] = static_cast<int16_t>(n % 3 ? 1000 : -1000);
-        loud[n * C] = static_cast<int16_t>(n == 10 ? 30000 : 0);
-    }
-    EXPECT_DOUBLE_EQ(pipeline::mixer_gain({&a}, C), 1.0);
-    EXPECT_NEAR(pipeline::mixer_gain({&a, &b}, C), 1 / std::sqrt(2.0), 1e-12);
-    EXPECT_NEAR(pipeline::mixer_gain({&a, &a}, C), 0.5, 1e-12);
-    // loud + loud: energy says 1/2 too, the peak bound 32767 / 60000.
-    EXPECT_NEAR(pipeline::mixer_gain({&loud, &loud}, C), 0.5, 1e-12);
-    std::vector<int16_t> loud2(512, 0);
-    loud2[20 * C] = 30000;  // same block, same channel, orthogonal in time: energy 1/sqrt(2), peak 32767/60000
-    EXPECT_NEAR(pipeline::mixer_gain({&loud, &loud2}, C), 32767.0 / 60000.0, 1e-12);
 }
 
 TEST(JointDesign, UnregularisedJointInverseIsExactAtEveryFocusOfTheSet)
@@ -464,116 +418,4 @@ TEST(JointDesign, LeastSquaresOfASetIsTheSumOfItsSingleDesigns)
     EXPECT_GT(jp, j0);
     EXPECT_GT(jm, j0);
     EXPECT_LT(std::abs(jp - jm), 1e-4 * (jp + jm - 2 * j0));
-}
-
-TEST(JointDesign, PairsAndTriplesKeepTheSuperpositionsBudget)
-{
-    // Every pair and triple of the 2 x 2 foci, superposed and designed
-    // jointly: the mix never has more energy than the mean of its foci alone
-    // (the firmware's normalisation), neither has the joint drive, no touched
-    // focus of the joint drive exceeds the scene's amplitude, and a set of
-    // one designed jointly is the table's design.
-    pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "inverse.toml");
-    in.calibration.dither = false;
-    in.calibration.lead_time_s = 0.006;
-    in.calibration.method = pipeline::DriveMethod::inverse_filter;
-    const pipeline::TransferMatrix H = pipeline::transfer_for(in, in.exciters.positions);
-    pipeline::CalibrationResult r;
-    r.exciters = in.exciters.positions;
-    pipeline::signals_and_verification(in, H, {}, r);
-    std::vector<std::vector<int16_t>> stored;
-    std::vector<double> energy;
-    for (const auto &d : r.signals) {
-        stored.push_back(d.samples);
-        double e = 0;
-        for (int16_t v : d.samples)
-            e += double(v) * double(v);
-        energy.push_back(e);
-    }
-    const auto single = pipeline::joint_inverse_filter_signals(in, H, {1});
-    const auto table = pipeline::inverse_filter_signals(in, H);
-    ASSERT_EQ(single.normalized.size(), table[1].normalized.size());
-    for (std::size_t i = 0; i < single.normalized.size(); i++)
-        ASSERT_EQ(single.normalized[i], table[1].normalized[i]) << i;
-
-    pipeline::MultiTouchOptions mo;
-    mo.triples = mo.joint = true;
-    const pipeline::MultiTouchReport rep =
-        pipeline::verify_multitouch(in, H, stored, in.calibration.output_rate_hz, mo);
-    std::size_t pairs = 0, triples = 0;
-    for (const pipeline::MultiTouchCase &c : rep.cases) {
-        ASSERT_TRUE(c.has_joint);
-        (c.foci.size() == 2 ? pairs : triples)++;
-        double e_ref = 0;
-        for (std::size_t f : c.foci)
-            e_ref += energy[f] / double(c.foci.size());
-        EXPECT_LE(c.superposed.energy, e_ref * (1 + 1e-6));
-        EXPECT_LE(c.joint.energy, e_ref * (1 + 1e-6));
-        EXPECT_LE(c.joint.gain, 1.0);
-        EXPECT_GT(c.joint.min_focus_peak_m, 0.0);
-        EXPECT_LE(c.joint.min_focus_peak_m, in.pulse.amplitude_m * (1 + 1e-6));
-        EXPECT_EQ(c.superposed.ok, c.superposed.min_focus_peak_m >= in.calibration.threshold_m &&
-                                       c.superposed.max_elsewhere_m < in.calibration.threshold_m);
-    }
-    // 2 x 2 foci more than lambda/2 (36 mm) apart: all 6 pairs, all 4 triples.
-    EXPECT_EQ(pairs, 6u);
-    EXPECT_EQ(triples, 4u);
-}
-
-TEST(Radiation, SmallBaffledPistonAndATone)
-{
-    // A 3 x 3 patch of lattice cells moving together, w(t) a Gaussian-windowed
-    // 300 Hz sine, heard on axis at 0.5 m: a baffled piston much smaller than
-    // the wavelength (1.1 m) and the distance, p(t) = rho0 A a(t - r / c0) / (2 pi r)
-    // with a = w'' analytically.
-    pipeline::ObservationLattice lat;
-    lat.stride = 1;
-    lat.cols = lat.rows = 11;
-    lat.spacing_m = 0.01;
-    const double R = 8000, f = 300, t0 = 0.05, sig = 0.006, z = 0.5;
-    const std::size_t S = 1024;
-    auto wt = [&](double t) {
-        return 1e-6 * std::exp(-(t - t0) * (t - t0) / (2 * sig * sig)) * std::sin(2 * std::numbers::pi * f * (t - t0));
-    };
-    std::vector<std::vector<float>> w(lat.size());
-    for (std::size_t n = 0; n < lat.size(); n++) {
-        const int i = int(n % 11), j = int(n / 11);
-        w[n].assign(S, 0.0f);
-        if (std::abs(i - 5) <= 1 && std::abs(j - 5) <= 1)
-            for (std::size_t s = 0; s < S; s++)
-                w[n][s] = static_cast<float>(wt(double(s) / R));
-    }
-    const std::vector<double> p = pipeline::rayleigh_pressure(lat, w, R, {0.05, 0.05}, z, S);
-    const double A = 9 * 0.01 * 0.01, delay = z / pipeline::sound_speed_m_s, h = 1e-5;
-    double peak = 0, diff = 0;
-    for (std::size_t s = 0; s < S; s++) {
-        const double t = double(s) / R - delay;
-        const double a = (wt(t + h) - 2 * wt(t) + wt(t - h)) / (h * h);
-        const double exact = pipeline::air_density_kg_m3 * A * a / (2 * std::numbers::pi * z);
-        peak = std::max(peak, std::abs(exact));
-        diff = std::max(diff, std::abs(p[s] - exact));
-    }
-    ASSERT_GT(peak, 0);
-    EXPECT_LT(diff, 0.01 * peak);  // float field, path differences of 0.04 mm over the patch
-
-    // A-weighting (IEC 61672-1 table): 0.0 dB at 1 kHz, -19.1 dB at 100 Hz, -3.2 dB at 500 Hz, +1.3 dB at 2.5 kHz.
-    EXPECT_NEAR(20 * std::log10(pipeline::a_weighting(1000)), 0.0, 0.05);
-    EXPECT_NEAR(20 * std::log10(pipeline::a_weighting(100)), -19.1, 0.1);
-    EXPECT_NEAR(20 * std::log10(pipeline::a_weighting(500)), -3.2, 0.1);
-    EXPECT_NEAR(20 * std::log10(pipeline::a_weighting(2500)), 1.3, 0.1);
-    // A 1 Pa, 1 kHz tone for 0.5 s (whole periods): exposure 0.5 x 0.5 Pa^2 s.
-    std::vector<double> tone(4000);
-    for (std::size_t s = 0; s < tone.size(); s++)
-        tone[s] = std::sin(2 * std::numbers::pi * 1000 * double(s) / R);
-    EXPECT_NEAR(pipeline::a_weighted_exposure(tone, R), 0.25, 0.25 * 0.01);
-}
-
-// The force energy of stored int16 signals, by hand: full scale 2 N at
-// 1 kHz, samples +FS, -FS, 0 and 16384 (1.000031 N).
-TEST(DriveFigures, ForceEnergyOfStoredSignalsByHand)
-{
-    const double half = 2.0 * 16384.0 / 32767.0;
-    EXPECT_DOUBLE_EQ(pipeline::drive_energy_n2s({32767, -32767, 0, 16384}, 2.0, 1000.0),
-                     (4.0 + 4.0 + 0.0 + half * half) / 1000.0);
-    EXPECT_EQ(pipeline::drive_energy_n2s({}, 2.0, 1000.0), 0.0);
 }

@@ -1,0 +1,102 @@
+// Several fingers: the firmware's mixer gain against hand-computed energies
+// and block peaks, and every pair and triple of a small plate's foci played
+// superposed and designed jointly, each within the superposition's budget.
+#include "pipeline/calibrate.h"
+#include "pipeline/calibrate_stages.h"
+#include "pipeline/inverse_filter.h"
+#include "pipeline/multitouch.h"
+#include "pipeline/verification.h"
+#include "scene/calibration_input.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "scene_text.h"
+
+using namespace calib;
+
+namespace {
+
+// A small lossy acrylic plate, four fixed exciters, 2 x 2 foci.
+const std::string plate_scene = scene_text::load("inverse.toml");
+
+}  // namespace
+
+TEST(MultiTouch, MixerGainHoldsTheMeanSingleFocusEnergyAndNeverClips)
+{
+    // Two channels, 256 frames. a and b: equal energy, orthogonal (different
+    // channels): E_sum = 2 E, E_ref = E, g = 1/sqrt(2). a with itself: the sum
+    // is 2a, E_sum = 4 E, g = 1/2. A loud pair whose sum would clip: the peak
+    // bound (64-frame blocks, sum of block peaks) wins.
+    const unsigned C = 2;
+    std::vector<int16_t> a(512, 0), b(512, 0), loud(512, 0);
+    for (std::size_t n = 0; n < 256; n++) {
+        a[n * C] = static_cast<int16_t>(n % 2 ? 1000 : -1000);
+        b[n * C + 1] = static_cast<int16_t>(n % 3 ? 1000 : -1000);
+        loud[n * C] = static_cast<int16_t>(n == 10 ? 30000 : 0);
+    }
+    EXPECT_DOUBLE_EQ(pipeline::mixer_gain({&a}, C), 1.0);
+    EXPECT_NEAR(pipeline::mixer_gain({&a, &b}, C), 1 / std::sqrt(2.0), 1e-12);
+    EXPECT_NEAR(pipeline::mixer_gain({&a, &a}, C), 0.5, 1e-12);
+    // loud + loud: energy says 1/2 too, the peak bound 32767 / 60000.
+    EXPECT_NEAR(pipeline::mixer_gain({&loud, &loud}, C), 0.5, 1e-12);
+    std::vector<int16_t> loud2(512, 0);
+    loud2[20 * C] = 30000;  // same block, same channel, orthogonal in time: energy 1/sqrt(2), peak 32767/60000
+    EXPECT_NEAR(pipeline::mixer_gain({&loud, &loud2}, C), 32767.0 / 60000.0, 1e-12);
+}
+
+TEST(MultiTouch, PairsAndTriplesKeepTheSuperpositionsBudgetJointOrSuperposed)
+{
+    // Every pair and triple of the 2 x 2 foci, superposed and designed
+    // jointly: the mix never has more energy than the mean of its foci alone
+    // (the firmware's normalisation), neither has the joint drive, no touched
+    // focus of the joint drive exceeds the scene's amplitude, and a set of
+    // one designed jointly is the table's design.
+    pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "inverse.toml");
+    in.calibration.dither = false;
+    in.calibration.lead_time_s = 0.006;
+    in.calibration.method = pipeline::DriveMethod::inverse_filter;
+    const pipeline::TransferMatrix H = pipeline::transfer_for(in, in.exciters.positions);
+    pipeline::CalibrationResult r;
+    r.exciters = in.exciters.positions;
+    pipeline::signals_and_verification(in, H, {}, r);
+    std::vector<std::vector<int16_t>> stored;
+    std::vector<double> energy;
+    for (const auto &d : r.signals) {
+        stored.push_back(d.samples);
+        double e = 0;
+        for (int16_t v : d.samples)
+            e += double(v) * double(v);
+        energy.push_back(e);
+    }
+    const auto single = pipeline::joint_inverse_filter_signals(in, H, {1});
+    const auto table = pipeline::inverse_filter_signals(in, H);
+    ASSERT_EQ(single.normalized.size(), table[1].normalized.size());
+    for (std::size_t i = 0; i < single.normalized.size(); i++)
+        ASSERT_EQ(single.normalized[i], table[1].normalized[i]) << i;
+
+    pipeline::MultiTouchOptions mo;
+    mo.triples = mo.joint = true;
+    const pipeline::MultiTouchReport rep =
+        pipeline::verify_multitouch(in, H, stored, in.calibration.output_rate_hz, mo);
+    std::size_t pairs = 0, triples = 0;
+    for (const pipeline::MultiTouchCase &c : rep.cases) {
+        ASSERT_TRUE(c.has_joint);
+        (c.foci.size() == 2 ? pairs : triples)++;
+        double e_ref = 0;
+        for (std::size_t f : c.foci)
+            e_ref += energy[f] / double(c.foci.size());
+        EXPECT_LE(c.superposed.energy, e_ref * (1 + 1e-6));
+        EXPECT_LE(c.joint.energy, e_ref * (1 + 1e-6));
+        EXPECT_LE(c.joint.gain, 1.0);
+        EXPECT_GT(c.joint.min_focus_peak_m, 0.0);
+        EXPECT_LE(c.joint.min_focus_peak_m, in.pulse.amplitude_m * (1 + 1e-6));
+        EXPECT_EQ(c.superposed.ok, c.superposed.min_focus_peak_m >= in.calibration.threshold_m &&
+                                       c.superposed.max_elsewhere_m < in.calibration.threshold_m);
+    }
+    // 2 x 2 foci more than lambda/2 (36 mm) apart: all 6 pairs, all 4 triples.
+    EXPECT_EQ(pairs, 6u);
+    EXPECT_EQ(triples, 4u);
+}
