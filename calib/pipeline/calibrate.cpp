@@ -75,6 +75,11 @@ double a0_wavelength_m(const engine::PlateOperator &plate, double f_hz)
     return 2 * std::numbers::pi * std::sqrt(plate.kappa() / (2 * std::numbers::pi * f_hz));
 }
 
+double judged_lambda_half_m(const CalibrationInput &in)
+{
+    return in.lambda_half_m > 0 ? in.lambda_half_m : a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+}
+
 std::string scene_hash(const std::string &bytes)
 {
     const uLong c = crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef *>(bytes.data()),

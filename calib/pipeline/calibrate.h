@@ -35,6 +35,13 @@ struct CalibrationInput {
     engine::effects::EffectsSpec effects;  // [effects]; the exciter model acts here (docs/effects.md)
     std::optional<ToleranceSpec> tolerance;  // [tolerance]: verify over the box (docs/robustness.md)
     std::optional<RobustSpec> robust;        // [calibration] robust: design over an ensemble
+    // The radius beyond which a focus's surroundings are judged (the whole
+    // area, the other foci, the control points): lambda/2 at the pulse
+    // centre on the scene's plate (0: from `plate`). A perturbed plate
+    // (tolerance.h) keeps its scene's, so every plate of a tolerance box is
+    // held to the same area in millimetres: a panel whose waves are 0.75 %
+    // slower is not judged 0.6 mm closer to the focus.
+    double lambda_half_m = 0;
 };
 
 // Progress of long stages (stage name, items done, items total).
@@ -177,6 +184,8 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
 
 // A0 wavelength (Kirchhoff) at frequency f on the scene's plate.
 double a0_wavelength_m(const engine::PlateOperator &plate, double f_hz);
+// The judged radius: in.lambda_half_m, or lambda/2 at the pulse centre on in.plate.
+double judged_lambda_half_m(const CalibrationInput &in);
 
 // CRC-32 (zlib) of the scene file bytes, as "crc32:<8 hex>": identifies the
 // scene a table came from (provenance, not security).

@@ -227,7 +227,7 @@ std::vector<std::size_t> control_points(const CalibrationInput &in, const Transf
 std::vector<std::size_t> control_points(const CalibrationInput &in, const TransferMatrix &H,
                                         const std::vector<std::size_t> &set)
 {
-    const double lambda_half = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+    const double lambda_half = judged_lambda_half_m(in);
     const Rect &a = in.active.area;
     auto far = [&](Point p) {
         for (std::size_t f : set) {

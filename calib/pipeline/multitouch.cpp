@@ -67,7 +67,7 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
                                    const MultiTouchOptions &options)
 {
     const std::size_t K = in.foci.points.size(), C = H.channels, L = H.lattice.size();
-    const double lambda_half = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+    const double lambda_half = judged_lambda_half_m(in);
     std::vector<std::vector<std::size_t>> sets;
     auto apart = [&](std::size_t a, std::size_t b) {
         return distance(in.foci.points[a].at, in.foci.points[b].at) >= lambda_half;

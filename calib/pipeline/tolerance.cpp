@@ -218,6 +218,7 @@ CalibrationInput perturbed_input(const CalibrationInput &in, const Perturbation 
     pp.loss.sigma0 *= p.loss_scale;
     pp.loss.sigma1 *= p.loss_scale * kappa_ratio;
     CalibrationInput out = in;
+    out.lambda_half_m = judged_lambda_half_m(in);  // judged on the scene's area, whatever the plate
     auto op = std::make_shared<const engine::PlateOperator>(pp, in.plate->grid());
     if (!in.effects.thick_plate) {
         if (in.simulation.time_step_s > 0) {

@@ -207,7 +207,7 @@ Verification verify_signals_with(const CalibrationInput &in, const TransferMatri
         served.push_back(n);
     Playback pb(H, served, drive, output_samples(in, H, drive));
     const double R = H.rate_hz, k = H.time_step_s, M = double(H.decimation);
-    const double lambda_half = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+    const double lambda_half = judged_lambda_half_m(in);
     const double thr = in.calibration.threshold_m;
     const ObservationLattice &lat = H.lattice;
     const double cell = lat.spacing_m * lat.spacing_m;
@@ -378,7 +378,7 @@ Verification verify_drive_with(const CalibrationInput &in, const TransferMatrix 
         FocusMetrics &m = v.foci[g];
         m.id = in.foci.points[g].id;
         m.at = in.foci.points[g].at;
-        m.lambda_half_m = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+        m.lambda_half_m = judged_lambda_half_m(in);
         const Peak pk = refined_peak(w[g]);
         m.peak_m = pk.value;
         m.peak_time_s = pk.index * double(H.decimation) * H.time_step_s + H.time_step_s;

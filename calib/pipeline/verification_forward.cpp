@@ -85,7 +85,7 @@ Verification verify_signals_forward(const CalibrationInput &in, const std::vecto
     v.grid_nx = g.nx;
     v.grid_ny = g.ny;
     v.grid_h_m = g.h;
-    const double lambda_half = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+    const double lambda_half = judged_lambda_half_m(in);
     size_t done = 0;
     std::string failure;
 #pragma omp parallel for schedule(dynamic)
@@ -180,7 +180,7 @@ Verification verify_drive_forward(const CalibrationInput &in, const std::vector<
         FocusMetrics &m = v.foci[gi];
         m.id = in.foci.points[gi].id;
         m.at = in.foci.points[gi].at;
-        m.lambda_half_m = a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+        m.lambda_half_m = judged_lambda_half_m(in);
         for (size_t s = 0; s < sim.traces()[gi].size(); s++)
             if (std::abs(sim.traces()[gi][s]) > m.peak_m) {
                 m.peak_m = std::abs(sim.traces()[gi][s]);

@@ -233,6 +233,32 @@ TEST(Robustness, MarginLevelCentresTheThresholdOverTheMemberPlates)
     }
 }
 
+TEST(Robustness, EveryPlateIsJudgedOnTheScenesArea)
+{
+    // E x0.9: waves 2.6 % slower, lambda/2 at the pulse centre 2.6 % shorter
+    // on that plate. The verification still judges every focus beyond the
+    // scene's lambda/2 (the product's spatial criterion, in millimetres), so
+    // a point in between is neither a ghost on the slow plate nor left out
+    // on the fast one.
+    const pipeline::CalibrationInput in = input(base_scene);
+    const pipeline::CalibrationResult r = pipeline::calibrate(in);
+    const double scene_half = pipeline::a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2;
+    Perturbation soft;
+    soft.youngs_scale = 0.9;
+    const pipeline::CalibrationInput pin = pipeline::perturbed_input(in, soft);
+    const double own_half = pipeline::a0_wavelength_m(*pin.plate, in.pulse.centre_hz) / 2;
+    EXPECT_NEAR(own_half / scene_half, std::pow(0.9, 0.25), 1e-9);  // not vacuous: the plate's own is shorter
+    EXPECT_EQ(pipeline::judged_lambda_half_m(pin), scene_half);
+    EXPECT_EQ(pipeline::judged_lambda_half_m(in), scene_half);
+    const pipeline::Verification v = verify_on(in, r, soft);
+    for (const pipeline::FocusMetrics &m : v.foci) {
+        EXPECT_EQ(m.lambda_half_m, scene_half) << "focus " << m.id;
+        ASSERT_TRUE(m.whole_area) << "focus " << m.id;
+        EXPECT_GT(std::hypot(m.whole_area_max_at.x_m - m.at.x_m, m.whole_area_max_at.y_m - m.at.y_m), scene_half)
+            << "focus " << m.id;
+    }
+}
+
 TEST(Robustness, RescaledTransferAgreesWithASimulatedPlate)
 {
     // Plates that differ only in kappa and mass per area: the nominal H
