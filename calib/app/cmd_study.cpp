@@ -14,6 +14,7 @@
 #include "study/robustness.h"
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -70,7 +71,8 @@ int run_study_latency(const LatencyArgs &a)
     const std::string md = study::write_latency_report(r, a.report);
     std::printf("%s", md.c_str());
     std::fprintf(stderr, "wrote %s/latency.{csv,svg,png,md} and latency-efficiency.svg%s\n", a.report.c_str(),
-                 o.joint ? " (multitouch.csv, .svg, .png with joint designs)" : "");
+                 std::filesystem::exists(a.report + "/multitouch.csv") ? " (multitouch.csv, .svg, .png with joint designs)"
+                                                                        : "");
     return 0;
 }
 

@@ -43,6 +43,8 @@ double a0_group_velocity(const engine::PlateOperator &plate, double f_hz)
     return 2.0 * std::sqrt(2 * std::numbers::pi * f_hz * plate.kappa());
 }
 
+}  // namespace
+
 // Pre-compensates every channel by the regularised inverse of the exciter
 // (engine/effects/exciter.h), renormalises to peak 1 and requantises; the
 // gain follows, so `counts / gain` is still the force the plate receives.
@@ -67,8 +69,6 @@ void precompensate_for_exciter(DriveSignals &d, const engine::effects::ExciterSp
     d.gain /= peak;
     requantize(d, d.level, tro);
 }
-
-}  // namespace
 
 double a0_wavelength_m(const engine::PlateOperator &plate, double f_hz)
 {

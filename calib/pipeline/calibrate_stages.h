@@ -27,4 +27,9 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
 // pulse convolved in at H's rate, at full scale.
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H);
 
+// Pre-compensates a drive at full scale by the regularised inverse of the
+// exciter ([effects] exciter with precompensate, engine/effects/exciter.h),
+// as calibrate() does to every table's drives.
+void precompensate_for_exciter(DriveSignals &d, const engine::effects::ExciterSpec &e, const TimeReversalOptions &tro);
+
 }  // namespace calib::pipeline

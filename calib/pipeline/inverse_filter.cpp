@@ -1,6 +1,7 @@
 #include "pipeline/inverse_filter.h"
 
 #include "pipeline/calibrate.h"
+#include "pipeline/calibrate_stages.h"
 #include "pipeline/lead_time.h"
 #include "pipeline/peaks.h"
 #include "pipeline/playback.h"
@@ -373,7 +374,16 @@ DriveSignals joint_inverse_filter_signals(const CalibrationInput &in, const Tran
     for (std::size_t f : set)
         ids += (ids.empty() ? "" : "+") + std::to_string(in.foci.points.at(f).id);
     try {
-        return scene_design(in, Plates{&H}, set, in.exciters.seed * 1000003u + 999983u);
+        const uint64_t seed = in.exciters.seed * 1000003u + 999983u;
+        DriveSignals d = scene_design(in, Plates{&H}, set, seed);
+        if (in.effects.exciter && in.effects.exciter->precompensate) {  // as the table's drives
+            TimeReversalOptions tro;
+            tro.output_rate_hz = in.calibration.output_rate_hz;
+            tro.dither = in.calibration.dither;
+            tro.dither_seed = seed;
+            precompensate_for_exciter(d, *in.effects.exciter, tro);
+        }
+        return d;
     } catch (const std::exception &e) {
         throw std::runtime_error("foci " + ids + ": " + e.what());
     }

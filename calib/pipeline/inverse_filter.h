@@ -145,8 +145,8 @@ std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, con
 // fingers at once): one drive with every foci row of the set targeting the
 // pulse at the scene's focus instant, the control points farther than
 // lambda/2 from all of them, the scene's lead time and regularization, at
-// full scale. A set of one is that focus's table design (but for the dither
-// seed).
+// full scale, pre-compensated for the exciter when the scene's tables are. A
+// set of one is that focus's plain table design (but for the dither seed).
 DriveSignals joint_inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H,
                                           const std::vector<std::size_t> &set);
 

@@ -86,6 +86,9 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
         return rep;
 
     // The joint designs first: the playback below serves the longest drive.
+    if (options.joint && in.robust)
+        throw std::invalid_argument("multi-touch: joint designs are of the nominal plate, the table is robust "
+                                    "(calibration.robust)");
     std::vector<std::vector<int16_t>> joint(options.joint ? sets.size() : 0);
     for (std::size_t i = 0; i < joint.size(); i++)
         joint[i] = joint_inverse_filter_signals(in, H, sets[i]).samples;
@@ -121,18 +124,19 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
         v.gain = gain;
         for (float x : mix)
             v.energy += double(x) * double(x) * 32767.0 * 32767.0;
-        if (cap_at_amplitude) {
-            double loudest = 0;
-            for (std::size_t f : set)
-                loudest = std::max(loudest, refined_peak(w[f]).value);
-            if (loudest > in.pulse.amplitude_m)  // the field is at `gain` already
-                v.gain = gain * in.pulse.amplitude_m / loudest;
-            const float k = static_cast<float>(v.gain / gain);
-            v.energy *= double(k) * double(k);
+        double loudest = 0;
+        for (std::size_t f : set)
+            loudest = std::max(loudest, refined_peak(w[f]).value);
+        if (cap_at_amplitude && gain > 0 && loudest > in.pulse.amplitude_m) {  // the field is at `gain` already
+            v.gain = gain * in.pulse.amplitude_m / loudest;
+            const double k = v.gain / gain;
+            v.energy *= k * k;
+            loudest *= k;
             for (auto &x : w)
                 for (float &y : x)
-                    y *= k;
+                    y = static_cast<float>(y * k);
         }
+        v.max_focus_peak_m = loudest;
         auto far_from_all = [&](Point p) {
             for (std::size_t f : set)
                 if (distance(p, in.foci.points[f].at) <= lambda_half)
@@ -180,11 +184,8 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
         MultiTouchCase mc;
         mc.foci = sets[k];
         std::vector<const std::vector<int16_t> *> s;
-        double e_ref = 0;
-        for (std::size_t f : mc.foci) {
+        for (std::size_t f : mc.foci)
             s.push_back(&signals[f]);
-            e_ref += energy(signals[f]) / double(mc.foci.size());
-        }
         const double g = mixer_gain(s, unsigned(C));
         std::vector<float> mix(frames * C, 0.0f);
         for (const auto *x : s)
@@ -194,7 +195,7 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
         if (options.joint) {
             const std::vector<int16_t> &x = joint[k];
             const double e = energy(x);
-            const double gj = std::min(1.0, e > 0 ? std::sqrt(e_ref / e) : 0.0);
+            const double gj = std::min(1.0, e > 0 ? std::sqrt(mc.superposed.energy / e) : 0.0);
             std::fill(mix.begin(), mix.end(), 0.0f);
             for (std::size_t i = 0; i < x.size(); i++)
                 mix[i] = static_cast<float>(gj * double(x[i]) / 32767.0);

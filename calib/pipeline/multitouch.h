@@ -11,14 +11,14 @@
 //
 // Against it, with the inverse filter, the joint design of the set
 // (inverse_filter.h: one drive, every touched focus a target row, the control
-// points beyond lambda/2 of all of them) under the same budget: the
-// superposition's energy E_ref, full scale, and no focus louder than the
-// scene's amplitude (the mixer's gain limit 1 keeps each focus at or below
-// its stored level):
-//   g_joint = min(sqrt(E_ref / E_joint), 1, amplitude / max_f peak_f),
+// points beyond lambda/2 of all of them) under the same budget: the energy
+// the mix plays (E_mix = g^2 E_sum), full scale, and no touched focus louder
+// than the scene's amplitude (the scene asks for no more at a focus):
+//   g_joint = min(sqrt(E_mix / E_joint), 1, amplitude / max_f peak_f),
 // the joint drive stored at full scale (E_joint its energy, peak_f its focal
 // peaks there). What a table of single foci loses against a drive made for
-// the set, per pair and triple.
+// the set, per pair and triple. A robust table (calibration.robust) has no
+// joint counterpart here (the joint design is of the nominal plate): refused.
 #pragma once
 #include "pipeline/placement.h"
 #include "pipeline/transfer.h"
@@ -35,6 +35,7 @@ struct SetVerdict {
     double gain = 0;                    // the firmware's g (superposition) or g_joint
     double energy = 0;                  // of the drive played, counts^2 (full scale 32767)
     double min_focus_peak_m = 0;        // the weakest touched focus
+    double max_focus_peak_m = 0;        // the loudest touched focus
     double max_elsewhere_m = 0;         // largest |w| beyond lambda/2 of every touched focus, all times
     Point elsewhere_at;
     // min(weakest focus - threshold, threshold - max elsewhere): > 0 when ok.

@@ -127,8 +127,12 @@ std::string write_joint(const LatencyResult &r, const std::string &dir)
                << " | " << lost << " |\n";
         }
     }
-    if (!any)
+    if (!any) {  // no joint designs: nothing of an earlier run's may stay beside this one
+        std::error_code ec;
+        for (const char *f : {"/multitouch.csv", "/multitouch.svg", "/multitouch.png"})
+            std::filesystem::remove(dir + f, ec);
         return {};
+    }
     p.add(report::Series("joint = superposed", {lo, hi}, {lo, hi}, report::LineStyle::dashed));
     io::write_file_atomic(dir + "/multitouch.csv", csv.str());
     report::write_plot(p, dir + "/multitouch.svg");

@@ -149,8 +149,10 @@ TEST(FocusCeiling, NoFieldWithThePulseAtTheFocusScoresAboveIt)
         } else {
             EXPECT_LE(db, ideal_db + 1e-9) << "strength " << strength;
             // Not vacuous: the maximum over a circle is above its mean when
-            // the field varies around it (measured 9.00 and 7.30 dB against 9.81).
+            // the field varies around it (9.00 and 7.30 dB against 9.81 for
+            // this seed).
             EXPECT_LT(db, ideal_db - 0.3) << "strength " << strength;
+            EXPECT_NEAR(db, strength < 0.5 ? 9.00 : 7.30, 0.05) << "strength " << strength;
         }
     }
 }

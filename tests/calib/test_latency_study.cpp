@@ -78,8 +78,11 @@ TEST(LatencyStudy, JointDesignsBesideTheSuperpositionInTheInverseFilterCases)
         for (pipeline::MultiTouchCase &c : x.sets)
             c.has_joint = false;
     const auto dir2 = std::filesystem::temp_directory_path() / ("latency-study-plain-" + std::to_string(::getpid()));
+    (void)study::write_latency_report(r, dir2.string());  // an earlier run with joint designs, same directory
+    ASSERT_TRUE(std::filesystem::exists(dir2 / "multitouch.csv"));
     const std::string md2 = study::write_latency_report(plain, dir2.string());
     EXPECT_FALSE(std::filesystem::exists(dir2 / "multitouch.csv"));
+    EXPECT_FALSE(std::filesystem::exists(dir2 / "multitouch.svg"));
     EXPECT_EQ(md2.find("Several fingers"), std::string::npos);
     std::filesystem::remove_all(dir2);
 }

@@ -10,7 +10,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 #include "scene_text.h"
@@ -82,21 +84,79 @@ TEST(MultiTouch, PairsAndTriplesKeepTheSuperpositionsBudgetJointOrSuperposed)
     const pipeline::MultiTouchReport rep =
         pipeline::verify_multitouch(in, H, stored, in.calibration.output_rate_hz, mo);
     std::size_t pairs = 0, triples = 0;
+    double quietest = INFINITY;
     for (const pipeline::MultiTouchCase &c : rep.cases) {
         ASSERT_TRUE(c.has_joint);
         (c.foci.size() == 2 ? pairs : triples)++;
         double e_ref = 0;
         for (std::size_t f : c.foci)
             e_ref += energy[f] / double(c.foci.size());
+        // The firmware's normalisation: at most the mean energy of the foci alone.
         EXPECT_LE(c.superposed.energy, e_ref * (1 + 1e-6));
-        EXPECT_LE(c.joint.energy, e_ref * (1 + 1e-6));
-        EXPECT_LE(c.joint.gain, 1.0);
+        // The joint drive: at most what the mix plays, and no touched focus
+        // above the scene's amplitude.
+        EXPECT_LE(c.joint.energy, c.superposed.energy * (1 + 1e-6));
         EXPECT_GT(c.joint.min_focus_peak_m, 0.0);
-        EXPECT_LE(c.joint.min_focus_peak_m, in.pulse.amplitude_m * (1 + 1e-6));
-        EXPECT_EQ(c.superposed.ok, c.superposed.min_focus_peak_m >= in.calibration.threshold_m &&
-                                       c.superposed.max_elsewhere_m < in.calibration.threshold_m);
+        EXPECT_LE(c.joint.min_focus_peak_m, c.joint.max_focus_peak_m);
+        EXPECT_LE(c.joint.max_focus_peak_m, in.pulse.amplitude_m * (1 + 1e-6));
+        quietest = std::min(quietest, c.joint.max_focus_peak_m);
     }
     // 2 x 2 foci more than lambda/2 (36 mm) apart: all 6 pairs, all 4 triples.
     EXPECT_EQ(pairs, 6u);
     EXPECT_EQ(triples, 4u);
+
+    // The amplitude cap, exercised: with the scene's amplitude at half the
+    // quietest joint drive's loudest focus every joint drive is turned down
+    // until its loudest touched focus is exactly that amplitude, the field
+    // and the energy scaled with the gain (the field is linear in it); the
+    // superposition does not move.
+    pipeline::CalibrationInput low = in;
+    low.pulse.amplitude_m = 0.5 * quietest;
+    const pipeline::MultiTouchReport capped =
+        pipeline::verify_multitouch(low, H, stored, in.calibration.output_rate_hz, mo);
+    ASSERT_EQ(capped.cases.size(), rep.cases.size());
+    for (std::size_t i = 0; i < rep.cases.size(); i++) {
+        const pipeline::SetVerdict &a = rep.cases[i].joint, &b = capped.cases[i].joint;
+        const double k = b.gain / a.gain;
+        EXPECT_LT(k, 0.5 + 1e-6) << i;
+        EXPECT_NEAR(b.max_focus_peak_m, low.pulse.amplitude_m, 1e-4 * low.pulse.amplitude_m) << i;
+        EXPECT_NEAR(b.min_focus_peak_m, k * a.min_focus_peak_m, 1e-4 * b.min_focus_peak_m) << i;
+        EXPECT_NEAR(b.max_elsewhere_m, k * a.max_elsewhere_m, 1e-4 * b.max_elsewhere_m) << i;
+        EXPECT_NEAR(b.energy, k * k * a.energy, 1e-4 * b.energy) << i;
+        EXPECT_EQ(capped.cases[i].superposed.energy, rep.cases[i].superposed.energy) << i;
+    }
+    // A robust table has no joint counterpart (the joint design is of the nominal plate): refused.
+    pipeline::CalibrationInput robust = in;
+    robust.robust = pipeline::RobustSpec{};
+    EXPECT_THROW(pipeline::verify_multitouch(robust, H, stored, in.calibration.output_rate_hz, mo),
+                 std::invalid_argument);
+}
+
+TEST(MultiTouch, AJointSetOfOneIsTheTablesDesignWithThePrecompensatedExciter)
+{
+    // With [effects.exciter] precompensate the table's drives are
+    // pre-compensated for the exciter; a joint design must be too, or the
+    // comparison is of two different devices. A set of one: the same
+    // normalised drive as the stored focus, before dither.
+    pipeline::CalibrationInput in = scene::calibration_input(
+        plate_scene + "[effects.exciter]\nmoving_mass_kg = 0.03\nstiffness_n_m = 1.0e5\ndamping_n_s_m = 25\n"
+                      "force_factor_n_a = 3.2\nprecompensate = true\nmax_boost_db = 12\n",
+        "inverse.toml");
+    ASSERT_TRUE(in.effects.exciter && in.effects.exciter->precompensate);
+    in.calibration.lead_time_s = 0.006;
+    in.calibration.method = pipeline::DriveMethod::inverse_filter;
+    const pipeline::TransferMatrix H = pipeline::transfer_for(in, in.exciters.positions);
+    pipeline::CalibrationResult r;
+    r.exciters = in.exciters.positions;
+    pipeline::signals_and_verification(in, H, {}, r);
+    const pipeline::DriveSignals one = pipeline::joint_inverse_filter_signals(in, H, {2});
+    const pipeline::DriveSignals plain = pipeline::inverse_filter_signals(in, H)[2];  // not pre-compensated
+    ASSERT_EQ(one.normalized.size(), r.signals[2].normalized.size());
+    double diff = 0, moved = 0;
+    for (std::size_t i = 0; i < one.normalized.size(); i++) {
+        diff = std::max(diff, std::abs(one.normalized[i] - r.signals[2].normalized[i]));
+        moved = std::max(moved, std::abs(one.normalized[i] - plain.normalized[i]));
+    }
+    EXPECT_LT(diff, 1e-12);
+    EXPECT_GT(moved, 0.01);  // the pre-compensation changes the drive
 }
