@@ -325,16 +325,23 @@ std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, con
 
 namespace {
 
+// The device-side finishing of a drive: the output rate and dither of the scene.
+TimeReversalOptions finishing(const CalibrationInput &in, uint64_t dither_seed)
+{
+    TimeReversalOptions tro;
+    tro.output_rate_hz = in.calibration.output_rate_hz;
+    tro.dither = in.calibration.dither;
+    tro.dither_seed = dither_seed;
+    return tro;
+}
+
 // The scene's design of the foci `set` (indices into the scene's foci) over
 // `plates`, at full scale.
 DriveSignals scene_design(const CalibrationInput &in, const Plates &plates, const std::vector<std::size_t> &set,
                           uint64_t dither_seed)
 {
     const TransferMatrix &H = *plates.front();
-    TimeReversalOptions tro;
-    tro.output_rate_hz = in.calibration.output_rate_hz;
-    tro.dither = in.calibration.dither;
-    tro.dither_seed = dither_seed;
+    const TimeReversalOptions tro = finishing(in, dither_seed);
     InverseFilterOptions o;
     o.regularization = in.calibration.regularization;
     o.band_edge_hz = pulse_max_frequency_hz(in.pulse);
@@ -377,11 +384,7 @@ DriveSignals joint_inverse_filter_signals(const CalibrationInput &in, const Tran
         const uint64_t seed = in.exciters.seed * 1000003u + 999983u;
         DriveSignals d = scene_design(in, Plates{&H}, set, seed);
         if (in.effects.exciter && in.effects.exciter->precompensate) {  // as the table's drives
-            TimeReversalOptions tro;
-            tro.output_rate_hz = in.calibration.output_rate_hz;
-            tro.dither = in.calibration.dither;
-            tro.dither_seed = seed;
-            precompensate_for_exciter(d, *in.effects.exciter, tro);
+            precompensate_for_exciter(d, *in.effects.exciter, finishing(in, seed));
         }
         return d;
     } catch (const std::exception &e) {

@@ -124,14 +124,18 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
         v.gain = gain;
         for (float x : mix)
             v.energy += double(x) * double(x) * 32767.0 * 32767.0;
-        double loudest = 0;
+        // The touched foci's peaks, once (the cap scales them with the field).
+        std::vector<double> focal;
         for (std::size_t f : set)
-            loudest = std::max(loudest, refined_peak(w[f]).value);
+            focal.push_back(refined_peak(w[f]).value);
+        double loudest = *std::max_element(focal.begin(), focal.end());
         if (cap_at_amplitude && gain > 0 && loudest > in.pulse.amplitude_m) {  // the field is at `gain` already
             v.gain = gain * in.pulse.amplitude_m / loudest;
             const double k = v.gain / gain;
             v.energy *= k * k;
             loudest *= k;
+            for (double &p : focal)
+                p *= k;
             for (auto &x : w)
                 for (float &y : x)
                     y = static_cast<float>(y * k);
@@ -143,9 +147,7 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
                     return false;
             return true;
         };
-        v.min_focus_peak_m = INFINITY;
-        for (std::size_t f : set)
-            v.min_focus_peak_m = std::min(v.min_focus_peak_m, refined_peak(w[f]).value);
+        v.min_focus_peak_m = *std::min_element(focal.begin(), focal.end());
         for (std::size_t g = 0; g < K; g++)
             if (far_from_all(in.foci.points[g].at)) {
                 const double x = refined_peak(w[g]).value;
