@@ -29,11 +29,12 @@ extern "C" {
 
 #define HAPTIC_TABLE_MAGIC "HAPTBL\r\n"          /* 8 bytes, no terminator */
 #define HAPTIC_TABLE_VERSION_MAJOR 1u
-#define HAPTIC_TABLE_VERSION_MINOR 1u            /* newest minor this code writes and fully checks */
+#define HAPTIC_TABLE_VERSION_MINOR 2u            /* newest minor this code writes and fully checks */
 #define HAPTIC_TABLE_HEADER_SIZE 128u
 #define HAPTIC_TABLE_CHANNEL_RECORD_SIZE 16u
 #define HAPTIC_TABLE_FOCUS_RECORD_SIZE 48u
 #define HAPTIC_TABLE_PROVENANCE_SIZE 256u
+#define HAPTIC_TABLE_PANEL_SIZE 32u
 #define HAPTIC_TABLE_PAYLOAD_ALIGN 64u
 #define HAPTIC_TABLE_CRC_SIZE 4u
 
@@ -47,6 +48,13 @@ extern "C" {
 
 /* Optional flag (1.1): the playback section is present (its offset at header byte 96). */
 #define HAPTIC_TABLE_FLAG_PLAYBACK 0x00010000u
+/* Optional flag (1.2): the panel section is present (its offset at header byte 104). */
+#define HAPTIC_TABLE_FLAG_PANEL 0x00020000u
+
+/* The panel section's ranges (a reader refuses values outside them). */
+#define HAPTIC_TABLE_PANEL_MIN_TEMPERATURE_C (-100.0)
+#define HAPTIC_TABLE_PANEL_MAX_TEMPERATURE_C 300.0
+#define HAPTIC_TABLE_PANEL_MAX_YOUNGS_PER_K 0.05   /* |dE/E/dT|, 1/K: 5 %/K, ten times a polymer's */
 
 /* The off-diagonal Gram elements are checked against the payload when the
  * products this takes, K (K - 1) / 2 * N * C, are at most this many: 169 foci
@@ -128,7 +136,17 @@ typedef struct haptic_table {
     uint32_t crc32;
     double force_full_scale_n; /* force (N) of sample 32767 at gain 1; NaN if unknown */
     uint16_t drive_kind;       /* enum haptic_drive_kind */
+    uint64_t panel_offset;     /* 0 without a panel section */
 } haptic_table;
+
+/* The plate the drives were calibrated for (1.2 panel section): what a
+ * device needs to play them on a panel at another temperature
+ * (haptic_stretch.h): the speed ratio at temperature T is
+ * sqrt(1 + youngs_per_k (T - temperature_c)). */
+typedef struct haptic_panel {
+    double temperature_c;      /* the plate's temperature in the calibration, degrees Celsius */
+    double youngs_per_k;       /* the plate's relative change of Young's modulus per kelvin (dE/E/dT, 1/K) */
+} haptic_panel;
 
 /* Writer input. The writer computes the Gram matrix and energies itself. */
 typedef struct haptic_table_spec {
@@ -147,6 +165,8 @@ typedef struct haptic_table_spec {
     uint16_t drive_kind;             /* enum haptic_drive_kind */
     double force_full_scale_n;       /* N at sample 32767, gain 1 */
     const double *focus_lead_time_s; /* [focus_count] playback start to focal peak, s */
+    /* Panel section (1.2), written when given (NULL: none). */
+    const haptic_panel *panel;
 } haptic_table_spec;
 
 /* Human-readable name of a status code (never NULL). */
@@ -173,6 +193,8 @@ void haptic_table_provenance(const haptic_table *t, haptic_provenance *out);
 /* Table-level playback facts (1.1): NaN / HAPTIC_DRIVE_UNKNOWN for a 1.0 table. */
 double haptic_table_force_full_scale_n(const haptic_table *t);
 int haptic_table_drive_kind(const haptic_table *t);
+/* The panel section (1.2): 0 and *out filled, or -1 when the table has none. */
+int haptic_table_panel(const haptic_table *t, haptic_panel *out);
 /* Playback start to the focal peak of focus `index` (s); NaN if unknown or out of range. */
 double haptic_table_lead_time_s(const haptic_table *t, uint32_t index);
 /* Index of the focus with this id (any u32, 0 and 0xFFFFFFFF included), or -1. */

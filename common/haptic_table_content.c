@@ -30,29 +30,34 @@ static int check_reserved(const uint8_t *b, const haptic_table *t, haptic_table_
 {
     if (t->format_minor > HAPTIC_TABLE_VERSION_MINOR)
         return 0;
-    const uint32_t known = t->format_minor >= 1 ? HAPTIC_TABLE_FLAG_PLAYBACK : 0;
+    const uint32_t known = (t->format_minor >= 1 ? HAPTIC_TABLE_FLAG_PLAYBACK : 0) |
+                           (t->format_minor >= 2 ? HAPTIC_TABLE_FLAG_PANEL : 0);
     if (t->flags & ~FLAGS_REQUIRED_MASK & ~known)
         return fail(err, HAPTIC_TABLE_EFIELD, OFF_FLAGS, "offset %d (flags): optional bits 0x%08lx unknown in version 1.%u",
                     OFF_FLAGS, (unsigned long)(t->flags & ~FLAGS_REQUIRED_MASK & ~known), (unsigned)t->format_minor);
     int rc;
-    const uint64_t reserved_from = (t->flags & HAPTIC_TABLE_FLAG_PLAYBACK) && t->format_minor >= 1
-                                       ? OFF_HEADER_RESERVED
-                                       : OFF_PLAYBACK_OFFSET;
-    if ((rc = zero_bytes(b, reserved_from, HAPTIC_TABLE_HEADER_SIZE, "header reserved", err)))
+    /* An absent section's offset field is reserved (zero) too. */
+    if (!t->playback_offset && (rc = zero_bytes(b, OFF_PLAYBACK_OFFSET, OFF_PLAYBACK_OFFSET + 8, "header reserved",
+                                                err)))
+        return rc;
+    if (!t->panel_offset && (rc = zero_bytes(b, OFF_PANEL_OFFSET, OFF_PANEL_OFFSET + 8, "header reserved", err)))
+        return rc;
+    if ((rc = zero_bytes(b, OFF_HEADER_RESERVED, HAPTIC_TABLE_HEADER_SIZE, "header reserved", err)))
         return rc;
     /* Sections in file order with their sizes; gaps lie between them. */
-    struct { uint64_t off, size; } s[6] = {
+    struct { uint64_t off, size; } s[7] = {
         {t->channels_offset, (uint64_t)t->channel_count * HAPTIC_TABLE_CHANNEL_RECORD_SIZE},
         {t->foci_offset, (uint64_t)t->focus_count * HAPTIC_TABLE_FOCUS_RECORD_SIZE},
         {t->gram_offset, (uint64_t)t->focus_count * t->focus_count * 8},
         {t->provenance_offset, HAPTIC_TABLE_PROVENANCE_SIZE},
         {t->playback_offset, t->playback_offset ? playback_section_size(t->focus_count) : 0},
+        {t->panel_offset, t->panel_offset ? HAPTIC_TABLE_PANEL_SIZE : 0},
         {t->payload_offset, 0},
     };
     uint64_t end = HAPTIC_TABLE_HEADER_SIZE;
-    for (int i = 0; i < 6; i++) {
-        if (i == 4 && !t->playback_offset)
-            continue;
+    for (int i = 0; i < 7; i++) {
+        if (s[i].off == 0)
+            continue;  /* an absent section */
         if ((rc = zero_bytes(b, end, s[i].off, "gap between sections", err)))
             return rc;
         end = s[i].off + s[i].size;
@@ -108,6 +113,25 @@ static int check_foci(const uint8_t *b, const haptic_table *t, haptic_table_erro
                         (unsigned long)f, diag);
     }
     return 0;
+}
+
+static int check_panel(const uint8_t *b, const haptic_table *t, haptic_table_error *err)
+{
+    if (!t->panel_offset)
+        return 0;
+    const uint64_t off = t->panel_offset;
+    const double temp = rdf64(b + off + PANEL_TEMPERATURE);
+    if (!(temp >= HAPTIC_TABLE_PANEL_MIN_TEMPERATURE_C && temp <= HAPTIC_TABLE_PANEL_MAX_TEMPERATURE_C))
+        return fail(err, HAPTIC_TABLE_EFIELD, off + PANEL_TEMPERATURE,
+                    "offset %llu (panel temperature_c): %g is outside %g..%g degrees C",
+                    (unsigned long long)(off + PANEL_TEMPERATURE), temp, HAPTIC_TABLE_PANEL_MIN_TEMPERATURE_C,
+                    HAPTIC_TABLE_PANEL_MAX_TEMPERATURE_C);
+    const double k = rdf64(b + off + PANEL_YOUNGS_PER_K);
+    if (!(fabs(k) <= HAPTIC_TABLE_PANEL_MAX_YOUNGS_PER_K))
+        return fail(err, HAPTIC_TABLE_EFIELD, off + PANEL_YOUNGS_PER_K,
+                    "offset %llu (panel youngs_per_k): %g is outside +-%g per K",
+                    (unsigned long long)(off + PANEL_YOUNGS_PER_K), k, HAPTIC_TABLE_PANEL_MAX_YOUNGS_PER_K);
+    return zero_bytes(b, off + PANEL_RESERVED, off + HAPTIC_TABLE_PANEL_SIZE, "panel reserved", err);
 }
 
 static int check_playback(const uint8_t *b, const haptic_table *t, haptic_table_error *err)
@@ -332,7 +356,7 @@ int haptic_table_check_content_(const uint8_t *b, const haptic_table *t, haptic_
 {
     int rc;
     if ((rc = check_reserved(b, t, err)) || (rc = check_channels(b, t, err)) || (rc = check_foci(b, t, err)) ||
-        (rc = check_playback(b, t, err)) || (rc = check_gram(b, t, err)) || (rc = check_provenance(b, t, err)) ||
+        (rc = check_playback(b, t, err)) || (rc = check_panel(b, t, err)) || (rc = check_gram(b, t, err)) || (rc = check_provenance(b, t, err)) ||
         (rc = check_payload(b, t, err)))
         return rc;
     return 0;

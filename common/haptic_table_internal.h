@@ -31,7 +31,8 @@ enum {
     OFF_PAYLOAD_OFFSET = 80,
     OFF_PAYLOAD_SIZE = 88,
     OFF_PLAYBACK_OFFSET = 96,  /* 1.1; reserved (zero) in 1.0 */
-    OFF_HEADER_RESERVED = 104, /* to 128: zero up to the newest minor this reader knows */
+    OFF_PANEL_OFFSET = 104,    /* 1.2; reserved (zero) before */
+    OFF_HEADER_RESERVED = 112, /* to 128: zero up to the newest minor this reader knows */
 };
 
 /* Focus record field offsets. */
@@ -40,6 +41,8 @@ enum { FOC_ID = 0, FOC_RESERVED = 4, FOC_X = 8, FOC_Y = 16, FOC_SCALE = 24, FOC_
 enum { PROV_SCENE_NAME = 0, PROV_SCENE_HASH = 64, PROV_TOOL_VERSION = 128, PROV_CREATED = 192 };
 /* Playback section (1.1) field offsets; lead times follow, one f64 per focus. */
 enum { PLAY_FORCE = 0, PLAY_DRIVE_KIND = 8, PLAY_RESERVED = 10, PLAY_LEAD_TIMES = 16 };
+/* Panel section (1.2) field offsets; reserved (zero) to HAPTIC_TABLE_PANEL_SIZE. */
+enum { PANEL_TEMPERATURE = 0, PANEL_YOUNGS_PER_K = 8, PANEL_RESERVED = 16 };
 
 /* Flags: the low 16 bits are "required" (a reader that does not know a set
  * bit must refuse the file), the high 16 bits "optional" (ignored if unknown
@@ -95,13 +98,14 @@ struct layout {
     uint64_t gram_offset, gram_size;
     uint64_t provenance_offset, provenance_size;
     uint64_t playback_offset, playback_size; /* 0, 0 without the section */
+    uint64_t panel_offset, panel_size;       /* 0, 0 without the section */
     uint64_t payload_offset, payload_size;
     uint64_t file_size;
 };
 
 static inline uint64_t playback_section_size(uint32_t foci) { return PLAY_LEAD_TIMES + (uint64_t)foci * 8; }
 
-static inline void canonical_layout(uint32_t channels, uint32_t foci, uint32_t samples, bool playback,
+static inline void canonical_layout(uint32_t channels, uint32_t foci, uint32_t samples, bool playback, bool panel,
                                     struct layout *l)
 {
     l->channels_size = (uint64_t)channels * HAPTIC_TABLE_CHANNEL_RECORD_SIZE;
@@ -109,6 +113,7 @@ static inline void canonical_layout(uint32_t channels, uint32_t foci, uint32_t s
     l->gram_size = (uint64_t)foci * foci * sizeof(double);
     l->provenance_size = HAPTIC_TABLE_PROVENANCE_SIZE;
     l->playback_size = playback ? playback_section_size(foci) : 0;
+    l->panel_size = panel ? HAPTIC_TABLE_PANEL_SIZE : 0;
     l->payload_size = (uint64_t)foci * samples * channels * sizeof(int16_t);
     l->channels_offset = HAPTIC_TABLE_HEADER_SIZE;
     l->foci_offset = align_up(l->channels_offset + l->channels_size, 8);
@@ -118,6 +123,9 @@ static inline void canonical_layout(uint32_t channels, uint32_t foci, uint32_t s
     l->playback_offset = playback ? align_up(end, 8) : 0;
     if (playback)
         end = l->playback_offset + l->playback_size;
+    l->panel_offset = panel ? align_up(end, 8) : 0;
+    if (panel)
+        end = l->panel_offset + l->panel_size;
     l->payload_offset = align_up(end, HAPTIC_TABLE_PAYLOAD_ALIGN);
     l->file_size = l->payload_offset + l->payload_size + HAPTIC_TABLE_CRC_SIZE;
 }

@@ -149,8 +149,9 @@ static int check_layout(const uint8_t *b, uint64_t file_size, uint32_t header_si
                         haptic_table_error *err)
 {
     const bool playback = t->format_minor >= 1 && (t->flags & HAPTIC_TABLE_FLAG_PLAYBACK);
+    const bool panel = t->format_minor >= 2 && (t->flags & HAPTIC_TABLE_FLAG_PANEL);
     struct layout want;
-    canonical_layout(t->channel_count, t->focus_count, t->samples_per_signal, playback, &want);
+    canonical_layout(t->channel_count, t->focus_count, t->samples_per_signal, playback, panel, &want);
     const uint64_t limit = file_size - HAPTIC_TABLE_CRC_SIZE; /* file_size >= 128 here */
     t->channels_offset = rd64(b + OFF_CHANNELS_OFFSET);
     t->foci_offset = rd64(b + OFF_FOCI_OFFSET);
@@ -179,6 +180,13 @@ static int check_layout(const uint8_t *b, uint64_t file_size, uint32_t header_si
                                 end, 8, limit)))
             return rc;
         end = t->playback_offset + want.playback_size;
+    }
+    if (panel) {
+        t->panel_offset = rd64(b + OFF_PANEL_OFFSET);
+        if ((rc = check_section(err, OFF_PANEL_OFFSET, "panel_offset", t->panel_offset, want.panel_size, end, 8,
+                                limit)))
+            return rc;
+        end = t->panel_offset + want.panel_size;
     }
     if ((rc = check_section(err, OFF_PAYLOAD_OFFSET, "payload_offset", t->payload_offset, want.payload_size, end,
                             HAPTIC_TABLE_PAYLOAD_ALIGN, limit)))
@@ -292,6 +300,15 @@ void haptic_table_close(haptic_table *t)
         return;
     free(t->owned);
     memset(t, 0, sizeof *t);
+}
+
+int haptic_table_panel(const haptic_table *t, haptic_panel *out)
+{
+    if (!t || !t->data || !out || !t->panel_offset)
+        return -1;
+    out->temperature_c = rdf64(t->data + t->panel_offset + PANEL_TEMPERATURE);
+    out->youngs_per_k = rdf64(t->data + t->panel_offset + PANEL_YOUNGS_PER_K);
+    return 0;
 }
 
 double haptic_table_lead_time_s(const haptic_table *t, uint32_t index)

@@ -29,6 +29,12 @@ int haptic_table_print_summary(const haptic_table *t, const char *path, FILE *ou
     else
         fprintf(out, "drive        %s, full scale (32767) = %.6g N, %.6g N per count\n",
                 haptic_drive_kind_name(haptic_table_drive_kind(t)), force, force / 32767.0);
+    haptic_panel panel;
+    if (haptic_table_panel(t, &panel) == 0)
+        fprintf(out, "panel        calibrated at %.1f C, dE/E/dT %+.3g %%/K (hapticd's [panel] plays it at the panel's "
+                     "temperature)\n", panel.temperature_c, 100 * panel.youngs_per_k);
+    else
+        fprintf(out, "panel        unknown (no panel section: no temperature compensation from this table)\n");
     for (uint32_t c = 0; c < t->channel_count; c++) {
         double x, y;
         haptic_table_channel_position(t, c, &x, &y);

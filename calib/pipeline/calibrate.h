@@ -42,6 +42,7 @@ struct CalibrationInput {
     // held to the same area in millimetres: a panel whose waves are 0.75 %
     // slower is not judged 0.6 mm closer to the focus.
     double lambda_half_m = 0;
+    double plate_temperature_c = 23;  // [plate] temperature_c: the table's panel section
 };
 
 // Progress of long stages (stage name, items done, items total).

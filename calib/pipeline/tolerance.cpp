@@ -4,6 +4,8 @@
 #include "pipeline/drive_figures.h"
 #include "pipeline/verification.h"
 
+#include <haptic_stretch.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -91,6 +93,26 @@ void check_tolerance(const CalibrationInput &in, const ToleranceSpec &t)
     positive(1 - t.density_rel, "tolerance.rho_rel", "the density");
     positive(1 - t.thickness_rel, "tolerance.thickness_rel", "the thickness");
     positive(1 - std::abs(r.youngs_per_kelvin) * t.temperature_k, "tolerance.temperature_k", "Young's modulus");
+    if (t.speed_compensation) {
+        // The device stretches by 0.8-1.25 (common/haptic_stretch.h): every
+        // plate of the box, the corners of the random combinations included.
+        std::vector<Perturbation> plates = one_at_a_time(in, t);
+        if (t.random_cases > 0) {
+            const double T = std::abs(r.youngs_per_kelvin) * t.temperature_k;
+            plates.push_back(scaled("the slowest corner of the random combinations", "", (1 - t.youngs_rel) * (1 - T),
+                                    1 + t.density_rel, 1 - t.thickness_rel));
+            plates.push_back(scaled("the fastest corner of the random combinations", "", (1 + t.youngs_rel) * (1 + T),
+                                    1 - t.density_rel, 1 + t.thickness_rel));
+        }
+        for (const Perturbation &p : plates) {
+            const double alpha = p.thickness_scale * std::sqrt(p.youngs_scale / p.density_scale);
+            if (!(alpha >= HAPTIC_STRETCH_MIN_RATIO && alpha <= HAPTIC_STRETCH_MAX_RATIO))
+                throw std::invalid_argument("tolerance.speed_compensation: " + p.name + " makes the waves " +
+                                            fmt("%.3f", alpha) + " times as fast, beyond what a device stretches (" +
+                                            fmt("%g", HAPTIC_STRETCH_MIN_RATIO) + "-" +
+                                            fmt("%g", HAPTIC_STRETCH_MAX_RATIO) + ")");
+        }
+    }
     // Every plate of the box must take the scheme: each case, and the corner
     // where the plate is stiffest and most lossy (the random combinations
     // stay inside it). Only a forced time step can fail; otherwise a plate
@@ -287,6 +309,22 @@ std::optional<TransferMatrix> rescaled_transfer(const CalibrationInput &nominal,
     return R;
 }
 
+std::vector<std::vector<int16_t>> stretched(const std::vector<std::vector<int16_t>> &signals, std::size_t channels,
+                                            double speed_ratio)
+{
+    std::vector<std::vector<int16_t>> out;
+    for (const std::vector<int16_t> &s : signals) {
+        const auto frames = static_cast<uint32_t>(s.size() / std::max<std::size_t>(channels, 1));
+        std::vector<int16_t> t(std::size_t(haptic_stretch_frames(frames, speed_ratio)) * channels);
+        if (t.empty() || haptic_stretch(s.data(), frames, static_cast<uint32_t>(channels), speed_ratio, t.data(),
+                                        nullptr) != 0)
+            throw std::invalid_argument("speed compensation: a speed ratio of " + std::to_string(speed_ratio) +
+                                        " is beyond what a device stretches (0.8-1.25)");
+        out.push_back(std::move(t));
+    }
+    return out;
+}
+
 CaseFigures figures_of(const Verification &v, const std::vector<std::vector<int16_t>> &signals,
                        double force_full_scale_n, double rate_hz)
 {
@@ -365,6 +403,17 @@ std::vector<ToleranceCase> evaluate_cases(const CalibrationInput &in, const std:
         if (plain)
             c.nominal_design = figures_of(verify_signals_with(pin, H, plain->signals, plain->rate_hz),
                                           plain->signals, F, plain->rate_hz);
+        c.speed_ratio = pin.plate->kappa() / in.plate->kappa();
+        if (in.tolerance && in.tolerance->speed_compensation && c.speed_ratio != 1) {
+            // What the device plays on this panel (hapticd [panel]), verified.
+            auto compensated = [&](const StoredTable &t) {
+                const std::vector<std::vector<int16_t>> s = stretched(t.signals, in.exciters.count, c.speed_ratio);
+                return figures_of(verify_signals_with(pin, H, s, t.rate_hz), s, F, t.rate_hz);
+            };
+            c.compensated = compensated(table);
+            if (plain)
+                c.nominal_design_compensated = compensated(*plain);
+        }
         c.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
         out.push_back(std::move(c));
     }

@@ -76,6 +76,12 @@ TransferMatrix perturbed_transfer(const CalibrationInput &nominal, const Calibra
 std::optional<TransferMatrix> rescaled_transfer(const CalibrationInput &nominal, const CalibrationInput &perturbed,
                                                 const TransferMatrix &H, const Perturbation &p);
 
+// `signals` (interleaved frames of `channels`) as the device plays them on a
+// panel `speed_ratio` times as fast as the nominal plate (common/haptic_stretch.h).
+// Throws std::invalid_argument for a ratio a device does not stretch by.
+std::vector<std::vector<int16_t>> stretched(const std::vector<std::vector<int16_t>> &signals, std::size_t channels,
+                                            double speed_ratio);
+
 // The figures of one verification of `signals` (for the drive energy).
 CaseFigures figures_of(const Verification &v, const std::vector<std::vector<int16_t>> &signals,
                        double force_full_scale_n, double rate_hz);

@@ -26,6 +26,10 @@ struct ToleranceSpec {
     double exciter_position_m = 0;       // every exciter within this distance of its table position
     double temperature_k = 0;            // +-K from the calibration temperature, through E
     std::optional<double> youngs_per_kelvin;  // dE/E/dT (1/K); unset: the material's
+    // The device plays the table at the panel's speed ratio (hapticd's
+    // [panel], common/haptic_stretch.h): every plate whose wave speed differs
+    // is verified a second time with the table stretched by that ratio.
+    bool speed_compensation = false;
     unsigned random_cases = 0;           // seeded random combinations (the study adds them)
     uint64_t seed = 1;
 };
@@ -77,6 +81,12 @@ struct ToleranceCase {
     CaseFigures table;                          // the table as written
     std::optional<CaseFigures> nominal_design;  // with a robust design: the plain design on the same plate
     bool rescaled = false;                      // H from the nominal one (pipeline/tolerance.h), not simulated
+    // The plate's kappa over the nominal plate's (E, rho, d, temperature): the
+    // speed ratio a device measures and compensates.
+    double speed_ratio = 1;
+    // With speed compensation, on a plate whose speed ratio is not 1: the
+    // table (and the plain design) stretched by it (common/haptic_stretch.h).
+    std::optional<CaseFigures> compensated, nominal_design_compensated;
     double seconds = 0;
 };
 
@@ -88,6 +98,9 @@ struct ToleranceReport {
     std::vector<ToleranceCase> cases;
     CaseFigures worst;                          // worst of every figure over the cases
     std::optional<CaseFigures> nominal_design_worst;
+    // With speed compensation: the worst over the box when the device plays
+    // each plate at its speed ratio (the compensated figures where there are).
+    std::optional<CaseFigures> compensated_worst, nominal_design_compensated_worst;
     double seconds = 0;                         // the box's verification
     // Robust design: the ensemble's members and what designing over them cost.
     std::vector<std::string> ensemble;

@@ -75,6 +75,19 @@ ToleranceReport tolerance_stage(const CalibrationInput &in, const TransferMatrix
     r.worst = worst_of(mine);
     if (!theirs.empty())
         r.nominal_design_worst = worst_of(theirs);
+    if (in.tolerance && in.tolerance->speed_compensation) {
+        // The box as the device meets it: each plate at its speed ratio.
+        std::vector<CaseFigures> mine_c{r.nominal}, theirs_c(r.nominal_design ? 1 : 0, theirs.empty() ? CaseFigures{}
+                                                                                                     : theirs.front());
+        for (const ToleranceCase &c : r.cases) {
+            mine_c.push_back(c.compensated.value_or(c.table));
+            if (c.nominal_design)
+                theirs_c.push_back(c.nominal_design_compensated.value_or(*c.nominal_design));
+        }
+        r.compensated_worst = worst_of(mine_c);
+        if (!theirs_c.empty())
+            r.nominal_design_compensated_worst = worst_of(theirs_c);
+    }
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return r;
 }

@@ -59,9 +59,18 @@ toml::table tolerance_json(const pipeline::ToleranceReport &r)
         x.insert("factor", c.perturbation.factor);
         if (c.nominal_design)
             x.insert("plain_design", figures_json(*c.nominal_design));
+        x.insert("speed_ratio", c.speed_ratio);
+        if (c.compensated)
+            x.insert("compensated", figures_json(*c.compensated));
+        if (c.nominal_design_compensated)
+            x.insert("plain_design_compensated", figures_json(*c.nominal_design_compensated));
         cases.push_back(std::move(x));
     }
     t.insert("cases", std::move(cases));
+    if (r.compensated_worst)
+        t.insert("compensated_worst", figures_json(*r.compensated_worst));
+    if (r.nominal_design_compensated_worst)
+        t.insert("plain_compensated_worst", figures_json(*r.nominal_design_compensated_worst));
     if (r.nominal_design) {
         toml::array members;
         for (const std::string &m : r.ensemble)
@@ -80,9 +89,13 @@ std::string tolerance_text(const pipeline::ToleranceReport &r, std::size_t foci)
                     fmt("%.1f s", r.seconds) + " (worst-focus whole-area contrast, peak, offset, Fig. 8)\n";
     s += line("  nominal plate", r.nominal, foci);
     s += line("  worst over the box", r.worst, foci);
+    if (r.compensated_worst)
+        s += line("  worst, speed compensated", *r.compensated_worst, foci);
     if (r.nominal_design) {
         s += line("  plain design, nominal plate", *r.nominal_design, foci);
         s += line("  plain design, worst over the box", *r.nominal_design_worst, foci);
+        if (r.nominal_design_compensated_worst)
+            s += line("  plain design, worst, compensated", *r.nominal_design_compensated_worst, foci);
         s += "  robust design over " + std::to_string(r.ensemble.size() + 1) + " plates: " +
              fmt("%.1f s", r.ensemble_seconds) + ", peak per drive energy " +
              fmt("%+.1f %%", 100 * (r.nominal.peak_per_energy / r.nominal_design->peak_per_energy - 1)) +
@@ -102,6 +115,9 @@ std::string tolerance_html(const pipeline::ToleranceReport &r, std::size_t foci)
           << fmt("%.1f", r.ensemble_seconds) << " s); the plain design is shown beside it. Peak per drive energy "
           << fmt("%+.1f %%", 100 * (r.nominal.peak_per_energy / r.nominal_design->peak_per_energy - 1))
           << " against the plain design.";
+    if (r.compensated_worst)
+        h << " Speed compensation: the device plays each panel at its speed ratio (the panel's kappa over the "
+             "nominal plate's; hapticd [panel]); the rows marked <i>compensated</i> are the table stretched by it.";
     h << "</p><table><tr><th>plate</th><th>worst-focus whole-area contrast (dB)</th><th>peak (um)</th>"
          "<th>perceived offset (mm)</th><th>lead (ms)</th><th>Fig. 8 holds</th><th>area crosses at</th></tr>";
     h << html_row("nominal", r.nominal, foci, false);
@@ -111,10 +127,20 @@ std::string tolerance_html(const pipeline::ToleranceReport &r, std::size_t foci)
         h << html_row(c.perturbation.name, c.table, foci, false);
         if (c.nominal_design)
             h << html_row(c.perturbation.name + ", plain design", *c.nominal_design, foci, false);
+        const std::string at = fmt(", compensated x%.4f", c.speed_ratio);
+        if (c.compensated)
+            h << html_row(c.perturbation.name + at, *c.compensated, foci, false);
+        if (c.nominal_design_compensated)
+            h << html_row(c.perturbation.name + ", plain design" + at, *c.nominal_design_compensated, foci, false);
     }
     h << html_row("worst over the box", r.worst, foci, true);
     if (r.nominal_design_worst)
         h << html_row("worst over the box, plain design", *r.nominal_design_worst, foci, true);
+    if (r.compensated_worst)
+        h << html_row("worst over the box, speed compensated", *r.compensated_worst, foci, true);
+    if (r.nominal_design_compensated_worst)
+        h << html_row("worst over the box, plain design, speed compensated", *r.nominal_design_compensated_worst,
+                      foci, true);
     h << "</table>";
     return h.str();
 }

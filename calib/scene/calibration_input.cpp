@@ -22,6 +22,7 @@ pipeline::CalibrationInput calibration_input(const Scene &s, const PlateSetup &s
     in.effects = s.effects;
     in.tolerance = s.tolerance;
     in.robust = s.robust;
+    in.plate_temperature_c = s.plate.temperature_c;
     return in;
 }
 

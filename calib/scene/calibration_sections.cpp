@@ -244,12 +244,8 @@ pipeline::CalibrationSpec parse_calibration(const Fields &f)
     }
     if (auto v = f.positive("threshold_m"))
         c.threshold_m = *v;
-    if (const toml::node *n = f.node("dither")) {
-        auto b = n->value<bool>();
-        if (!b || !n->is_boolean())
-            f.fail("dither", "must be true or false");
+    if (auto b = f.boolean("dither"))
         c.dither = *b;
-    }
     if (auto v = f.positive("accuracy")) {
         if (*v >= 1)
             f.fail("accuracy", "is a relative error, must lie in (0, 1), got " + format_number(*v));

@@ -10,16 +10,6 @@ namespace calib::scene {
 
 namespace {
 
-std::optional<bool> boolean(const Fields &f, std::string_view key)
-{
-    const toml::node *n = f.node(key);
-    if (!n)
-        return std::nullopt;
-    if (!n->is_boolean())
-        f.fail(key, "must be true or false");
-    return *n->value<bool>();
-}
-
 double non_negative(const Fields &f, std::string_view key, double fallback)
 {
     const std::optional<double> v = f.number(key);
@@ -35,10 +25,10 @@ double non_negative(const Fields &f, std::string_view key, double fallback)
 engine::effects::EffectsSpec parse_effects(const Fields &f, const PlateSpec &plate)
 {
     engine::effects::EffectsSpec e;
-    e.loss = boolean(f, "loss");
+    e.loss = f.boolean("loss");
     if (e.loss && *e.loss && !plate.loss)
         f.fail("loss", "true needs [plate.loss] (frequencies_hz, t60_s) to say how much");
-    if (const auto t = boolean(f, "thick_plate"))
+    if (const auto t = f.boolean("thick_plate"))
         e.thick_plate = *t;
     if (auto ft = f.table("finger", {"mass_kg", "stiffness_n_m", "damping_n_s_m", "position_m"})) {
         engine::effects::FingerSpec s;
@@ -68,7 +58,7 @@ engine::effects::EffectsSpec parse_effects(const Fields &f, const PlateSpec &pla
         if (!xt->has("damping_n_s_m"))
             xt->fail("damping_n_s_m", "missing (mechanical damping, N s/m)");
         s.force_factor_n_a = xt->positive("force_factor_n_a").value_or(1.0);
-        if (const auto p = boolean(*xt, "precompensate"))
+        if (const auto p = xt->boolean("precompensate"))
             s.precompensate = *p;
         s.max_boost_db = non_negative(*xt, "max_boost_db", s.max_boost_db);
         if (s.max_boost_db > 60)

@@ -7,6 +7,8 @@
 
 #include "engine/mindlin/mindlin_operator.h"
 
+#include <haptic_table.h>
+
 #include <filesystem>
 
 #include <cmath>
@@ -78,7 +80,7 @@ engine::Edges parse_edges(const Fields &plate)
 
 void parse_plate(const toml::table &t, Scene &scene)
 {
-    Fields f(t, scene.file, "plate", {"size_m", "thickness_m", "material", "edges", "loss"});
+    Fields f(t, scene.file, "plate", {"size_m", "thickness_m", "material", "edges", "loss", "temperature_c"});
     PlateSpec &p = scene.plate;
     auto size = f.numbers("size_m", 2);
     if (!size)
@@ -89,6 +91,11 @@ void parse_plate(const toml::table &t, Scene &scene)
     p.size_x_m = (*size)[0];
     p.size_y_m = (*size)[1];
     p.thickness_m = f.required_positive("thickness_m");
+    if (auto v = f.number("temperature_c")) {
+        if (!(*v >= HAPTIC_TABLE_PANEL_MIN_TEMPERATURE_C && *v <= HAPTIC_TABLE_PANEL_MAX_TEMPERATURE_C))
+            f.fail("temperature_c", "must lie in [-100, 300] degrees C, got " + format_number(*v));
+        p.temperature_c = *v;
+    }
     p.material = parse_material(f);
     p.edges = parse_edges(f);
     if (auto loss = f.table("loss", {"frequencies_hz", "t60_s"})) {
@@ -195,8 +202,8 @@ void parse_tolerance_section(const toml::table &t, Scene &scene)
 {
     scene.tolerance = parse_tolerance(Fields(t, scene.file, "tolerance",
                                              {"E_rel", "rho_rel", "thickness_rel", "loss", "loss_scale",
-                                              "exciter_position_m", "temperature_k", "E_per_k", "random_cases",
-                                              "seed"}),
+                                              "exciter_position_m", "temperature_k", "E_per_k", "speed_compensation",
+                                              "random_cases", "seed"}),
                                       scene.plate);
 }
 

@@ -34,6 +34,10 @@ struct PlateSpec {
     physics::Material material;
     engine::Edges edges;
     std::optional<LossSpec> loss;
+    // The temperature the plate is calibrated at (the material's values hold
+    // there), degrees Celsius: stored in the table for the device's
+    // temperature compensation (docs/table-format.md, panel section).
+    double temperature_c = 23;
 };
 
 // [simulation]

@@ -2,6 +2,8 @@
 
 #include "scene/scene.h"
 
+#include <haptic_table.h>
+
 #include <cmath>
 
 namespace calib::scene {
@@ -64,8 +66,9 @@ pipeline::ToleranceSpec parse_tolerance(const Fields &f, const PlateSpec &plate)
         t.exciter_position_m = *v;
     }
     if (auto v = f.number("E_per_k")) {
-        if (!std::isfinite(*v))
-            f.fail("E_per_k", "must be a finite relative change of E per kelvin");
+        if (!(std::abs(*v) <= HAPTIC_TABLE_PANEL_MAX_YOUNGS_PER_K))
+            f.fail("E_per_k", "must be a relative change of E per kelvin within +-0.05 (5 %/K), got " +
+                                  format_number(*v));
         t.youngs_per_kelvin = *v;
     }
     if (auto v = f.number("temperature_k")) {
@@ -77,6 +80,8 @@ pipeline::ToleranceSpec parse_tolerance(const Fields &f, const PlateSpec &plate)
                                         " per K makes Young's modulus <= 0");
         t.temperature_k = *v;
     }
+    if (auto b = f.boolean("speed_compensation"))
+        t.speed_compensation = *b;
     if (auto n = f.integer("random_cases")) {
         if (*n < 0 || *n > 10000)
             f.fail("random_cases", "must lie in [0, 10000], got " + std::to_string(*n));

@@ -89,6 +89,16 @@ std::optional<std::string> Fields::string(std::string_view key) const
     fail(key, "must be a string");
 }
 
+std::optional<bool> Fields::boolean(std::string_view key) const
+{
+    const toml::node *n = table_.get(key);
+    if (!n)
+        return std::nullopt;
+    if (auto b = n->value_exact<bool>())
+        return *b;
+    fail(key, "must be true or false");
+}
+
 std::optional<long long> Fields::integer(std::string_view key) const
 {
     const toml::node *n = table_.get(key);

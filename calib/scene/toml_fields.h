@@ -36,6 +36,7 @@ public:
     double required_positive(std::string_view key) const;
     std::optional<std::string> string(std::string_view key) const;
     std::optional<long long> integer(std::string_view key) const;
+    std::optional<bool> boolean(std::string_view key) const;  // true or false, nothing else
     // An array of exactly `n` numbers.
     std::optional<std::vector<double>> numbers(std::string_view key, std::size_t n) const;
     std::optional<Fields> table(std::string_view key, std::initializer_list<const char *> known) const;

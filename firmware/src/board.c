@@ -5,6 +5,7 @@
 
 #include "touch.h"
 
+#include <haptic_stretch.h>
 #include <ini.h>
 
 #include <errno.h>
@@ -40,6 +41,9 @@ void hd_board_defaults(struct hd_board *b)
     b->rewind_margin_frames = 32;
     b->lockout_ms = 50;
     b->gain_limit = 1.0;
+    b->panel.speed_ratio = 1.0;
+    b->panel.temperature_poll_s = 10.0;
+    b->panel.temperature_step_k = 0.5;
     b->touch.max_distance_m = 0.05;
     b->touch.hysteresis_m = 0.005;
     b->rt_priority = 80;
@@ -252,6 +256,19 @@ static int line_key(struct parse_ctx *c, const char *section, const char *name, 
     return bad(c, section, name, "unknown key");
 }
 
+/* One number in [lo, hi] (lo excluded unless lo_in). */
+static int number_key(struct parse_ctx *c, const char *section, const char *name, const char *value, double lo,
+                      bool lo_in, double hi, double *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(value, &end);
+    if (errno || end == value || *end || !(lo_in ? v >= lo : v > lo) || !(v <= hi))
+        return bad(c, section, name, "'%s' is not a number in %c%g, %g]", value, lo_in ? '[' : '(', lo, hi);
+    *out = v;
+    return 1;
+}
+
 /* "a, b, c" -> exactly n finite numbers. */
 static int parse_doubles(const char *s, double *out, unsigned n)
 {
@@ -329,15 +346,25 @@ static int handler(void *user, const char *section, const char *name, const char
         return bad(c, section, name, "unknown key");
     }
     if (!strcmp(section, "mixer")) {
-        if (!strcmp(name, "gain_limit")) {
-            char *end;
-            errno = 0;
-            double v = strtod(value, &end);
-            if (errno || end == value || *end || !(v > 0.0 && v <= 16.0))
-                return bad(c, section, name, "'%s' is not a number in (0, 16]", value);
-            b->gain_limit = v;
-            return 1;
+        if (!strcmp(name, "gain_limit"))
+            return number_key(c, section, name, value, 0.0, false, 16.0, &b->gain_limit);
+        return bad(c, section, name, "unknown key");
+    }
+    if (!strcmp(section, "panel")) {
+        struct hd_panel_board *p = &b->panel;
+        if (!strcmp(name, "speed_ratio"))
+            return number_key(c, section, name, value, HAPTIC_STRETCH_MIN_RATIO, true, HAPTIC_STRETCH_MAX_RATIO,
+                              &p->speed_ratio);
+        if (!strcmp(name, "temperature_input")) {
+            if (value[0] != '/')
+                return bad(c, section, name, "'%s' is not an absolute path (e.g. /sys/class/hwmon/hwmon0/temp1_input)",
+                           value);
+            return copy_str(c, section, name, p->temperature_input, sizeof p->temperature_input, value);
         }
+        if (!strcmp(name, "temperature_poll_s"))
+            return number_key(c, section, name, value, 0.05, true, 3600.0, &p->temperature_poll_s);
+        if (!strcmp(name, "temperature_step_k"))
+            return number_key(c, section, name, value, 0.0, false, 50.0, &p->temperature_step_k);
         return bad(c, section, name, "unknown key");
     }
     if (!strcmp(section, "table")) {

@@ -59,6 +59,15 @@ struct hd_board {
     } touch;
     /* [mixer] */
     double gain_limit;             /* upper bound of the mix gain g (1 = table full scale) */
+    /* [panel]: the panel the table plays on, against the plate it was
+     * calibrated for (speed compensation, panel.h) */
+    struct hd_panel_board {
+        double speed_ratio;        /* its bending-wave speed over the calibrated plate's at the calibration
+                                      temperature (a measured resonance over the same calibrated one) */
+        char temperature_input[HD_PATH_MAX]; /* file with its temperature in millidegrees C, "" if none */
+        double temperature_poll_s; /* how often that file is read */
+        double temperature_step_k; /* the drives are stretched again when it moved this much */
+    } panel;
     /* [table] */
     char table_path[HD_PATH_MAX];  /* "" if none (then --table is required) */
     /* [realtime] */

@@ -2,7 +2,8 @@
  *
  * This file is the shell: options, start-up, threads, signals, shutdown.
  * Threads: main (signals: SIGHUP reload, SIGTERM/SIGINT stop; frees retired
- * tables; logs counters, stats.c), trigger (trigger_loop.c), audio
+ * tables; logs counters, stats.c; reads the panel temperature and hands over
+ * the table stretched for it, panel.h), trigger (trigger_loop.c), audio
  * (audio_loop.c, SCHED_FIFO when allowed). --script runs the same engine
  * unpaced in one thread for sample-exact tests (script.c, audio_loop.c).
  */
@@ -12,6 +13,7 @@
 #include "board.h"
 #include "engine.h"
 #include "log.h"
+#include "panel.h"
 #include "program.h"
 #include "rt.h"
 #include "script.h"
@@ -26,6 +28,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
+#include <math.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -62,6 +65,9 @@ struct daemon {
     struct hd_latency_chain chain; /* touch -> focal peak, for the current table */
     int rewind_at_start;      /* the PCM rewinds (probed before the threads start) */
     double buffer_latency_s;  /* as granted by ALSA */
+    double celsius;           /* panel temperature the current table is stretched for; NAN: no sensor */
+    double next_poll_s;       /* CLOCK_MONOTONIC time of the next temperature reading */
+    int sensor_failing;       /* the last reading failed (logged once per failing stretch) */
 };
 
 static void usage(FILE *f)
@@ -117,14 +123,38 @@ static const char *table_path(const struct daemon *d)
     return d->opt.table ? d->opt.table : d->board.table_path;
 }
 
-static void reload(struct daemon *d)
+/* The table, stretched for the panel at temperature `celsius` (NAN: no
+ * sensor): the board's speed ratio and the temperature through the table's
+ * panel section (panel.h). */
+static int load_program(struct daemon *d, double celsius, struct hd_program **out, char err[HD_ERR_MAX])
+{
+    struct hd_program *p;
+    int rc = hd_program_load(table_path(d), &d->board, &p, err);
+    if (rc)
+        return rc;
+    double ratio;
+    if ((rc = hd_panel_speed_ratio(&d->board.panel, &p->table, celsius, &ratio, err)) != 0 ||
+        (rc = hd_program_set_speed(p, ratio, err)) != 0) {
+        hd_program_free(p);
+        return rc;
+    }
+    if (ratio != 1.0)
+        hd_log(LOG_INFO, "panel: drives played %.5f times as fast as stored (board speed ratio %.5f%s%.2f C), "
+                         "%u frames each%s",
+               ratio, d->board.panel.speed_ratio, isnan(celsius) ? "" : ", panel at ", isnan(celsius) ? 0.0 : celsius,
+               p->samples, p->stretch_clipped ? ", some samples saturated" : "");
+    *out = p;
+    return 0;
+}
+
+static int reload(struct daemon *d, double celsius)
 {
     struct hd_program *p;
     char err[HD_ERR_MAX];
     hd_engine_collect(&d->engine);
-    if (hd_program_load(table_path(d), &d->board, &p, err) != 0) {
+    if (load_program(d, celsius, &p, err) != 0) {
         hd_log(LOG_ERR, "reload refused, the current table keeps playing: %s", err);
-        return;
+        return -1;
     }
     /* The audio thread takes a new table only after the one before the current
      * is retired; wait for that (a signal length at most). */
@@ -138,8 +168,9 @@ static void reload(struct daemon *d)
     if (rc != 0) {
         hd_log(LOG_ERR, "reload refused: the previous reload is still being taken over");
         hd_program_free(p);
-        return;
+        return -1;
     }
+    d->celsius = celsius;
     hd_log(LOG_INFO, "reloaded %s (%u foci, %u channels, %u samples)", table_path(d), p->focus_count,
            p->channel_count, p->samples);
     if (d->have_touch) {
@@ -152,6 +183,42 @@ static void reload(struct daemon *d)
     }
     chain_for(d, p, d->rewind_at_start);
     hd_stats_log_chain(table_path(d), &d->chain);
+    return 0;
+}
+
+static double monotonic_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Every temperature_poll_s: read the panel temperature; once it has moved
+ * temperature_step_k from the one the table is stretched for, hand over the
+ * table stretched for the new one (a reload, off the real-time path). A
+ * sensor that cannot be read leaves the current table playing. */
+static void poll_temperature(struct daemon *d)
+{
+    const struct hd_panel_board *pb = &d->board.panel;
+    if (!pb->temperature_input[0] || monotonic_s() < d->next_poll_s)
+        return;
+    d->next_poll_s = monotonic_s() + pb->temperature_poll_s;
+    double t;
+    char err[HD_ERR_MAX];
+    if (hd_panel_read_celsius(pb->temperature_input, &t, err) != 0) {
+        if (!d->sensor_failing)
+            hd_log(LOG_WARNING, "panel temperature unreadable, the table stays stretched for %.2f C: %s", d->celsius,
+                   err);
+        d->sensor_failing = 1;
+        return;
+    }
+    if (d->sensor_failing)
+        hd_log(LOG_INFO, "panel temperature readable again: %.2f C", t);
+    d->sensor_failing = 0;
+    if (fabs(t - d->celsius) < pb->temperature_step_k)
+        return;
+    hd_log(LOG_INFO, "panel temperature %.2f C (the table is stretched for %.2f C): stretching again", t, d->celsius);
+    reload(d, t);
 }
 
 /* ---- main ---- */
@@ -329,9 +396,10 @@ static int run_live(struct daemon *d)
         hd_engine_collect(&d->engine);
         hd_stats_log(&d->engine, &last);
         if (sig == SIGHUP)
-            reload(d);
+            reload(d, d->celsius);
         else if (sig == SIGTERM || sig == SIGINT)
             break;
+        poll_temperature(d);
         if (atomic_load(&d->player.failed)) {
             hd_log(LOG_ERR, "ALSA device keeps failing: giving up");
             status = 1;
@@ -363,8 +431,16 @@ int main(int argc, char **argv)
         hd_log(LOG_ERR, "no table: pass --table or set [table] path in %s", d.board.path);
         return 1;
     }
+    d.celsius = NAN;
+    if (d.board.panel.temperature_input[0]) {
+        if (hd_panel_read_celsius(d.board.panel.temperature_input, &d.celsius, err) != 0) {
+            hd_log(LOG_ERR, "[panel] temperature_input: %s", err);
+            return 1;
+        }
+        d.next_poll_s = monotonic_s() + d.board.panel.temperature_poll_s;
+    }
     struct hd_program *prog;
-    if (hd_program_load(table_path(&d), &d.board, &prog, err) != 0) {
+    if (load_program(&d, d.celsius, &prog, err) != 0) {
         hd_log(LOG_ERR, "%s", err);
         return 1;
     }

@@ -10,7 +10,7 @@ double hd_mixer_sum_energy(const struct hd_program *p, const uint32_t *index, ui
     double e = 0.0;
     for (uint32_t i = 0; i < count; i++)
         for (uint32_t j = 0; j < count; j++)
-            e += haptic_table_gram(&p->table, index[i], index[j]);
+            e += hd_program_gram(p, index[i], index[j]);
     return e;
 }
 
@@ -37,7 +37,7 @@ int hd_mixer_gain(const struct hd_program *p, double gain_limit, struct hd_mix *
     for (uint32_t k = 0; k < m->count; k++) {
         if (m->index[k] >= p->focus_count)
             return -EINVAL;
-        e_ref += haptic_table_gram(&p->table, m->index[k], m->index[k]);
+        e_ref += hd_program_gram(p, m->index[k], m->index[k]);
     }
     e_ref /= m->count;
     double e_sum = hd_mixer_sum_energy(p, m->index, m->count);

@@ -2,9 +2,12 @@
 #define _POSIX_C_SOURCE 200809L
 #include "program.h"
 
+#include <haptic_stretch.h>
+
 #include <math.h>
 
 #include <errno.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,6 +48,30 @@ static int check_against_board(const haptic_table *t, const char *path, const st
     return 0;
 }
 
+/* The peak envelope of the drives as played (hd_program_signal). */
+static int compute_block_peaks(struct hd_program *p)
+{
+    p->blocks = (p->samples + HD_PEAK_BLOCK - 1) / HD_PEAK_BLOCK;
+    free(p->block_peak);
+    p->block_peak = calloc((size_t)p->focus_count * p->blocks * p->channel_count, sizeof *p->block_peak);
+    if (!p->block_peak)
+        return -ENOMEM;
+    for (uint32_t f = 0; f < p->focus_count; f++) {
+        const int16_t *s = hd_program_signal(p, f);
+        uint16_t *peak = p->block_peak + (size_t)f * p->blocks * p->channel_count;
+        for (uint32_t n = 0; n < p->samples; n++) {
+            uint16_t *row = peak + (size_t)(n / HD_PEAK_BLOCK) * p->channel_count;
+            for (uint32_t c = 0; c < p->channel_count; c++) {
+                int v = s[(size_t)n * p->channel_count + c];
+                uint16_t a = (uint16_t)(v < 0 ? -v : v);
+                if (a > row[c])
+                    row[c] = a;
+            }
+        }
+    }
+    return 0;
+}
+
 int hd_program_from_table(const haptic_table *t, const struct hd_board *b, struct hd_program **out,
                           char err[HD_ERR_MAX])
 {
@@ -59,27 +86,15 @@ int hd_program_from_table(const haptic_table *t, const struct hd_board *b, struc
     p->focus_count = t->focus_count;
     p->channel_count = t->channel_count;
     p->samples = t->samples_per_signal;
-    p->blocks = (p->samples + HD_PEAK_BLOCK - 1) / HD_PEAK_BLOCK;
+    p->speed_ratio = 1.0;
     p->by_id = calloc(p->focus_count, sizeof *p->by_id);
-    p->block_peak = calloc((size_t)p->focus_count * p->blocks * p->channel_count, sizeof *p->block_peak);
-    if (!p->by_id || !p->block_peak)
+    if (!p->by_id || compute_block_peaks(p) != 0)
         goto nomem;
     for (uint32_t f = 0; f < p->focus_count; f++) {
         haptic_focus_info info;
         haptic_table_focus(t, f, &info);
         p->by_id[f].id = info.id;
         p->by_id[f].index = f;
-        const int16_t *s = haptic_table_signal(t, f);
-        uint16_t *peak = p->block_peak + (size_t)f * p->blocks * p->channel_count;
-        for (uint32_t n = 0; n < p->samples; n++) {
-            uint16_t *row = peak + (size_t)(n / HD_PEAK_BLOCK) * p->channel_count;
-            for (uint32_t c = 0; c < p->channel_count; c++) {
-                int v = s[(size_t)n * p->channel_count + c];
-                uint16_t a = (uint16_t)(v < 0 ? -v : v);
-                if (a > row[c])
-                    row[c] = a;
-            }
-        }
     }
     qsort(p->by_id, p->focus_count, sizeof *p->by_id, cmp_key);
     *out = p;
@@ -110,6 +125,56 @@ int hd_program_load(const char *path, const struct hd_board *b, struct hd_progra
     return 0;
 }
 
+int hd_program_set_speed(struct hd_program *p, double speed_ratio, char err[HD_ERR_MAX])
+{
+    if (speed_ratio == p->speed_ratio)
+        return 0;
+    const uint32_t N = p->table.samples_per_signal, C = p->channel_count, K = p->focus_count;
+    const uint32_t M = haptic_stretch_frames(N, speed_ratio);
+    if (M == 0 || p->stretched) {
+        if (p->stretched)
+            snprintf(err, HD_ERR_MAX, "speed ratio %.6g: the program is stretched already", speed_ratio);
+        else
+            snprintf(err, HD_ERR_MAX, "speed ratio %.6g: outside %g..%g", speed_ratio, HAPTIC_STRETCH_MIN_RATIO,
+                     HAPTIC_STRETCH_MAX_RATIO);
+        return -EINVAL;
+    }
+    if ((uint64_t)M * C * K > (uint64_t)SIZE_MAX / sizeof(int16_t) / 2)
+        goto nomem;
+    p->stretched = malloc((size_t)M * C * K * sizeof *p->stretched);
+    p->gram = malloc((size_t)K * K * sizeof *p->gram);
+    if (!p->stretched || !p->gram)
+        goto nomem;
+    for (uint32_t f = 0; f < K; f++) {
+        int rc = haptic_stretch(haptic_table_signal(&p->table, f), N, C, speed_ratio,
+                                p->stretched + (size_t)f * M * C, &p->stretch_clipped);
+        if (rc == -ENOMEM)
+            goto nomem;
+        if (rc) {
+            snprintf(err, HD_ERR_MAX, "speed ratio %.6g: the resampler failed", speed_ratio);
+            return rc;
+        }
+    }
+    /* Exact: int16 products summed in int64 (M C <= 2^27, each <= 2^30), as
+     * the table's own Gram matrix is. */
+    for (uint32_t i = 0; i < K; i++)
+        for (uint32_t j = 0; j <= i; j++) {
+            const int16_t *a = p->stretched + (size_t)i * M * C, *b = p->stretched + (size_t)j * M * C;
+            int64_t acc = 0;
+            for (size_t n = 0; n < (size_t)M * C; n++)
+                acc += (int32_t)a[n] * b[n];
+            p->gram[(size_t)i * K + j] = p->gram[(size_t)j * K + i] = (double)acc;
+        }
+    p->samples = M;
+    p->speed_ratio = speed_ratio;
+    if (compute_block_peaks(p) != 0)
+        goto nomem;
+    return 0;
+nomem:
+    snprintf(err, HD_ERR_MAX, "out of memory stretching the table by %.6g", speed_ratio);
+    return -ENOMEM;
+}
+
 void hd_program_free(struct hd_program *p)
 {
     if (!p)
@@ -117,6 +182,8 @@ void hd_program_free(struct hd_program *p)
     haptic_table_close(&p->table);
     free(p->by_id);
     free(p->block_peak);
+    free(p->stretched);
+    free(p->gram);
     free(p);
 }
 
@@ -132,5 +199,5 @@ double hd_program_lead_time_s(const struct hd_program *p)
         if (isfinite(s) && (isnan(lead) || s > lead))
             lead = s;
     }
-    return lead;
+    return lead / p->speed_ratio;
 }

@@ -1,6 +1,8 @@
 /* program.h - a loaded table plus what the real-time path needs from it,
  * precomputed once at load (never on the real-time path): the focus id ->
- * index lookup and the block-peak envelope used by the peak limit. */
+ * index lookup, the block-peak envelope used by the peak limit, and, on a
+ * panel faster or slower than the calibrated plate, the drives stretched by
+ * the speed ratio (panel.h) with their own Gram matrix. */
 #ifndef HD_PROGRAM_H
 #define HD_PROGRAM_H
 
@@ -23,6 +25,10 @@ struct hd_program {
     struct hd_focus_key *by_id;  /* sorted by id */
     uint32_t blocks;             /* ceil(samples / HD_PEAK_BLOCK) */
     uint16_t *block_peak;        /* [focus][block][channel]: max |s| in that block (<= 32768) */
+    double speed_ratio;          /* the drives play this many times as fast as stored (1: as stored) */
+    int16_t *stretched;          /* [focus][n][c], `samples` frames; NULL at speed ratio 1 */
+    double *gram;                /* [focus][focus] of `stretched`; NULL at speed ratio 1 */
+    uint64_t stretch_clipped;    /* samples the stretch saturated */
     char path[HD_PATH_MAX];
 };
 
@@ -35,11 +41,17 @@ int hd_program_load(const char *path, const struct hd_board *b, struct hd_progra
 int hd_program_from_table(const haptic_table *t, const struct hd_board *b, struct hd_program **out,
                           char err[HD_ERR_MAX]);
 
+/* Plays the table `speed_ratio` times as fast (panel.h): stretches every
+ * drive (common/haptic_stretch.h), computes their Gram matrix exactly and
+ * the peak envelope again. Before the program is handed to the engine.
+ * 0, or -EINVAL / -ENOMEM with a one-line message. */
+int hd_program_set_speed(struct hd_program *p, double speed_ratio, char err[HD_ERR_MAX]);
+
 void hd_program_free(struct hd_program *p);
 
 /* The table's lead time: seconds from a voice's first sample to its focal
  * peak (the end of the kept time-reversal window), the largest over the
- * table's foci; NAN when the table does not say. */
+ * table's foci, over the speed ratio; NAN when the table does not say. */
 double hd_program_lead_time_s(const struct hd_program *p);
 
 /* Index of the focus with this id, or -1 (binary search, real-time safe). */
@@ -47,7 +59,14 @@ int32_t hd_program_find(const struct hd_program *p, uint32_t id);
 
 static inline const int16_t *hd_program_signal(const struct hd_program *p, uint32_t index)
 {
-    return haptic_table_signal(&p->table, index);
+    return p->stretched ? p->stretched + (size_t)index * p->samples * p->channel_count
+                        : haptic_table_signal(&p->table, index);
+}
+
+/* Gram[i][j] of the drives as played (indices checked by the caller). */
+static inline double hd_program_gram(const struct hd_program *p, uint32_t i, uint32_t j)
+{
+    return p->gram ? p->gram[(size_t)i * p->focus_count + j] : haptic_table_gram(&p->table, i, j);
 }
 
 #endif

@@ -204,6 +204,12 @@ TEST(Calibration, EndToEndEveryFocusForms)
         EXPECT_NEAR(fi.lead_time_s, r.signals[f].focus_delay_s, 2.0 / 1200);
     }
     EXPECT_DOUBLE_EQ(haptic_table_force_full_scale_n(&t), in.exciters.force_full_scale_n);
+    // The plate the drives are for (format 1.2): 23 C by default, the material's dE/E/dT.
+    haptic_panel panel{};
+    ASSERT_EQ(haptic_table_panel(&t, &panel), 0);
+    EXPECT_EQ(panel.temperature_c, 23.0);
+    EXPECT_EQ(panel.youngs_per_k, in.plate->params().material.youngs_per_kelvin);
+    EXPECT_NE(panel.youngs_per_k, 0.0);
     // An independent check of the level: the plate simulated directly (no
     // transfer matrix, no convolution) under the table's counts for focus 0,
     // read as the table format defines them (force_full_scale_n at 32767).

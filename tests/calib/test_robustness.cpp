@@ -193,9 +193,11 @@ TEST(Robustness, ToleranceSectionParsesTheDocumentedKeys)
     const scene::Scene s = scene::parse_scene(std::string(base_scene) +
                                                   "[tolerance]\nE_rel = 0.03\nrho_rel = 0.03\nthickness_rel = 0.05\n"
                                                   "loss = [0.030, 0.050]\nloss_scale = [0.5, 2]\n"
-                                                  "exciter_position_m = 0.002\ntemperature_k = 10\n",
+                                                  "exciter_position_m = 0.002\ntemperature_k = 10\n"
+                                                  "speed_compensation = true\n",
                                               "robust.toml");
     ASSERT_TRUE(s.tolerance);
+    EXPECT_TRUE(s.tolerance->speed_compensation);
     EXPECT_EQ(s.tolerance->youngs_rel, 0.03);
     EXPECT_EQ(*s.tolerance->loss_max, 0.05);
     EXPECT_EQ(s.tolerance->loss_scale.size(), 2u);
@@ -206,6 +208,25 @@ TEST(Robustness, ToleranceSectionParsesTheDocumentedKeys)
     EXPECT_NEAR(cases[2].youngs_scale, 1.04, 1e-12);
     EXPECT_NEAR(cases[3].youngs_scale, 0.96, 1e-12);
     EXPECT_NEAR(pipeline::loss_factor(*pipeline::perturbed_input(in, cases[0]).plate, 1200), 0.030, 1e-12);
+    // The calibration temperature the table stores (default 23 C), and the
+    // bounds the table's panel section holds both to.
+    EXPECT_EQ(in.plate_temperature_c, 23.0);
+    const std::string warm = std::string(base_scene).replace(base_scene.find("thickness_m = 0.002"), 19,
+                                                             "thickness_m = 0.002\ntemperature_c = 35.5");
+    EXPECT_EQ(input(warm).plate_temperature_c, 35.5);
+    auto refusal = [](const std::string &text) {
+        try {
+            input(text);
+        } catch (const std::exception &e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    EXPECT_EQ(refusal(std::string(warm).replace(warm.find("35.5"), 4, "-150")),
+              "robust.toml: plate.temperature_c: must lie in [-100, 300] degrees C, got -150");
+    EXPECT_EQ(refusal(std::string(base_scene) + "[tolerance]\nE_per_k = 0.06\n"),
+              "robust.toml: tolerance.E_per_k: must be a relative change of E per kelvin within +-0.05 (5 %/K), got "
+              "0.06");
 }
 
 TEST(Robustness, MarginLevelCentresTheThresholdOverTheMemberPlates)
@@ -290,4 +311,66 @@ TEST(Robustness, RescaledTransferAgreesWithASimulatedPlate)
     Perturbation lossy;
     lossy.loss_scale = 1.2;
     EXPECT_FALSE(pipeline::rescaled_transfer(in, pipeline::perturbed_input(in, lossy), H, lossy).has_value());
+}
+
+TEST(Robustness, SpeedCompensationPlaysTheNominalFieldOnAFasterOrSlowerPanel)
+{
+    // A panel whose kappa is alpha times the nominal plate's has
+    // H'(t) = (m0 / m) / alpha * H(alpha t) (scale invariance of the plate
+    // equation), so the table played alpha times faster gives the nominal
+    // field alpha times sooner, with every displacement times
+    // (m0 / m) / alpha^2: the same contrast and the same verdicts. Checked on
+    // plates simulated at their own parameters (a second method: not the
+    // rescaled nominal H), with the table stretched as the device does it.
+    const pipeline::CalibrationInput in = input(base_scene);
+    const pipeline::CalibrationResult r = pipeline::calibrate(in);
+    const pipeline::StoredTable t = stored(r, in);
+    Perturbation soft, thick;
+    soft.youngs_scale = 0.92;
+    thick.thickness_scale = 1.06;
+    for (const Perturbation &p : {soft, thick}) {
+        const pipeline::CalibrationInput pin = pipeline::perturbed_input(in, p);
+        const double alpha = pin.plate->kappa() / in.plate->kappa();
+        const double mass = p.density_scale * p.thickness_scale;  // m / m0
+        const pipeline::TransferMatrix H = pipeline::perturbed_transfer(in, pin, r.exciters, true);
+        const auto s = pipeline::stretched(t.signals, r.exciters.size(), alpha);
+        const pipeline::Verification plain = pipeline::verify_signals_with(pin, H, t.signals, t.rate_hz);
+        const pipeline::Verification comp = pipeline::verify_signals_with(pin, H, s, t.rate_hz);
+        double lost = 0;
+        for (std::size_t f = 0; f < comp.foci.size(); f++) {
+            const pipeline::FocusMetrics &c = comp.foci[f], &n = r.verification.foci[f];
+            // Seen: 1e-4 and 0.001 dB (the plates keep the nominal step, so
+            // the scheme's error differs a little; the stretch adds its own).
+            EXPECT_NEAR(c.peak_m / (n.peak_m / (mass * alpha * alpha)), 1.0, 1e-3) << "alpha " << alpha << " " << f;
+            EXPECT_NEAR(c.peak_time_s, n.peak_time_s / alpha, 2e-4);
+            EXPECT_NEAR(c.whole_area_contrast_db, n.whole_area_contrast_db, 0.02);
+            lost = std::max(lost, std::abs(n.whole_area_contrast_db - plain.foci[f].whole_area_contrast_db));
+        }
+        // Not vacuous: uncompensated, the contrast moves by 0.7-1.3 dB.
+        EXPECT_GT(lost, 0.5) << "alpha " << alpha;
+    }
+    // Through the tolerance stage: the plates whose speed differs get the
+    // compensated figures, the others (loss) none; a box beyond what a device
+    // stretches is refused in one line naming the key.
+    pipeline::CalibrationInput c = input(base_scene + "\n[tolerance]\nE_rel = 0.03\nloss_scale = [1.5]\n"
+                                                      "speed_compensation = true\n");
+    const auto cases = pipeline::evaluate_cases(c, r.exciters, pipeline::one_at_a_time(c, *c.tolerance), t,
+                                                nullptr, {}, nullptr);
+    ASSERT_EQ(cases.size(), 5u);  // E +-3 %, acrylic's loss range, loss x1.5
+    for (const pipeline::ToleranceCase &k : cases) {
+        EXPECT_EQ(k.compensated.has_value(), k.perturbation.factor == "E") << k.perturbation.name;
+        if (k.compensated) {
+            EXPECT_NEAR(k.compensated->worst_whole_area_contrast_db,
+                        pipeline::figures_of(r.verification, t.signals, 0.5, 48000).worst_whole_area_contrast_db, 0.02);
+        }
+    }
+    EXPECT_EQ(first_line_of_refusal(base_scene + "\n[tolerance]\nthickness_rel = 0.3\nspeed_compensation = true\n"),
+              "tolerance.speed_compensation: d -30 % makes the waves 0.700 times as fast, beyond what a device "
+              "stretches (0.8-1.25)");
+    try {
+        input(base_scene + "\n[tolerance]\nspeed_compensation = 1\n");
+        ADD_FAILURE() << "a number for a flag was taken";
+    } catch (const std::exception &e) {
+        EXPECT_STREQ(e.what(), "robust.toml: tolerance.speed_compensation: must be true or false");
+    }
 }

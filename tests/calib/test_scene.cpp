@@ -108,7 +108,7 @@ TEST(Scene, BadValuesNameTheKey)
 TEST(Scene, UnknownKeysAndSectionsAreRefusedWithTheKnownOnes)
 {
     EXPECT_EQ(error_of(replace(good, "thickness_m = 0.002", "thickness_m = 0.002\ncolour = \"red\"")),
-              "scene.toml: plate.colour: unknown key (known: size_m, thickness_m, material, edges, loss)");
+              "scene.toml: plate.colour: unknown key (known: size_m, thickness_m, material, edges, loss, temperature_c)");
     EXPECT_EQ(error_of(std::string(good) + "\n[plate_extra]\nx = 1\n"),
               "scene.toml: plate_extra: unknown section (known: name, plate, simulation, active_area, exciters, foci, "
               "pulse, calibration, effects, tolerance)");

@@ -44,6 +44,9 @@ void table_fixture_init(table_fixture *fx, uint16_t channels, uint32_t foci, uin
     sp->drive_kind = HAPTIC_DRIVE_EXCITER;
     sp->force_full_scale_n = 2.5;
     sp->focus_lead_time_s = fx->lead_s;
+    fx->panel.temperature_c = 23.0;
+    fx->panel.youngs_per_k = -0.004;
+    sp->panel = &fx->panel;
 }
 
 void table_fixture_free(table_fixture *fx)

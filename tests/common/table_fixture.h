@@ -11,14 +11,16 @@ typedef struct table_fixture {
     double focus_xy[128];
     double scale[64];
     double lead_s[64];
+    haptic_panel panel;
     int16_t *samples;
 } table_fixture;
 
 /* Deterministic signals (a 32-bit LCG) with the extremes -32768 and 32767
- * present; focus ids 10, 20, 30, ... ; foci <= 64. A 1.1 table with the
+ * present; focus ids 10, 20, 30, ... ; foci <= 64. A 1.2 table with the
  * playback section: exciter drive, 2.5 N at full scale, focus f's lead time
- * (f mod 4 + 1) / 4 of the signal. Set spec.drive_kind = HAPTIC_DRIVE_UNKNOWN to
- * leave the section out. */
+ * (f mod 4 + 1) / 4 of the signal; and the panel section: calibrated at
+ * 23 C, dE/E/dT -0.4 %/K. Set spec.drive_kind = HAPTIC_DRIVE_UNKNOWN or
+ * spec.panel = NULL to leave a section out. */
 void table_fixture_init(table_fixture *fx, uint16_t channels, uint32_t foci, uint32_t samples, uint32_t seed);
 void table_fixture_free(table_fixture *fx);
 /* Encode into a new malloc'ed buffer; returns its size (0 on failure). */

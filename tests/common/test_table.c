@@ -146,7 +146,7 @@ static void header_follows_the_documented_layout(void **state)
     /* Offsets and sizes as docs/table-format.md states them. */
     assert_memory_equal(b, "HAPTBL\r\n", 8);
     assert_int_equal(b[8] | b[9] << 8, 1);
-    assert_int_equal(b[10] | b[11] << 8, 1);
+    assert_int_equal(b[10] | b[11] << 8, 2);
     assert_int_equal(le32(b + 12), 128);
     assert_int_equal(le32(b + 20), 48000);
     assert_int_equal(b[24] | b[25] << 8, 8);
@@ -159,12 +159,24 @@ static void header_follows_the_documented_layout(void **state)
     assert_int_equal(fo, 128 + 8 * 16);
     assert_int_equal(gr, fo + 9 * 48);
     assert_int_equal(pr, gr + 9 * 9 * 8);
-    /* 1.1: the playback section (16 + 8 K bytes) follows the provenance. */
-    assert_int_equal(le32(b + 16), 0x00010000u);
-    uint64_t pb = le64(b + 96);
+    /* 1.1: the playback section (16 + 8 K bytes) follows the provenance;
+     * 1.2: the panel section (32 bytes) follows it, then the payload. */
+    assert_int_equal(le32(b + 16), 0x00030000u);
+    uint64_t pb = le64(b + 96), pn = le64(b + 104);
     assert_int_equal(pb, pr + 256);
+    assert_int_equal(pn, pb + 16 + 9 * 8);
+    double temp, coef;
+    uint64_t bits = le64(b + pn);
+    memcpy(&temp, &bits, 8);
+    bits = le64(b + pn + 8);
+    memcpy(&coef, &bits, 8);
+    assert_true(temp == 23.0 && coef == -0.004);
+    for (int k = 16; k < 32; k++)
+        assert_int_equal(b[pn + k], 0);
+    for (int k = 112; k < 128; k++)
+        assert_int_equal(b[k], 0);
     assert_int_equal(pl % 64, 0);
-    assert_true(pl >= pb + 16 + 9 * 8 && pl < pb + 16 + 9 * 8 + 64);
+    assert_true(pl >= pn + 32 && pl < pn + 32 + 64);
     assert_int_equal(le64(b + 88), 9 * 100 * 8 * 2);
     assert_int_equal(pl + 9 * 100 * 8 * 2 + 4, size);
     /* Focus 1 record: id at +0, x at +8 (IEEE-754 double, little-endian). */
@@ -291,6 +303,38 @@ static void accessors_check_their_indices(void **state)
     table_fixture_free(&fx);
 }
 
+/* 1.2's panel section: read back as written, absent when the writer is not
+ * given one (a table of an older minor has none), and a panel flag in a 1.1
+ * file is an unknown optional bit there: refused. */
+static void panel_section_round_trips_and_is_optional(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 3, 40, 5);
+    uint8_t *b;
+    size_t size = table_fixture_encode(&fx, &b);
+    haptic_table t;
+    haptic_panel p;
+    assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+    assert_int_equal(haptic_table_panel(&t, &p), 0);
+    assert_true(p.temperature_c == 23.0 && p.youngs_per_k == -0.004);
+    b[10] = 1; /* the same file called 1.1 */
+    table_fixture_fix_crc(b, size);
+    haptic_table_error err;
+    assert_int_equal(haptic_table_validate(b, size, &t, &err), HAPTIC_TABLE_EFIELD);
+    assert_non_null(strstr(err.message, "optional bits 0x00020000 unknown in version 1.1"));
+    free(b);
+    fx.spec.panel = NULL;
+    size_t without = table_fixture_encode(&fx, &b);
+    assert_true(without > 0 && without <= size); /* the payload aligns to 64: 32 bytes may not show */
+    assert_int_equal(haptic_table_validate(b, without, &t, NULL), 0);
+    assert_int_equal(haptic_table_panel(&t, &p), -1);
+    assert_int_equal(le32(b + 16), 0x00010000u);
+    assert_int_equal(le64(b + 104), 0);
+    free(b);
+    table_fixture_free(&fx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -302,6 +346,7 @@ int main(void)
         cmocka_unit_test(open_reports_missing_file),
         cmocka_unit_test(writer_refuses_bad_specs),
         cmocka_unit_test(accessors_check_their_indices),
+        cmocka_unit_test(panel_section_round_trips_and_is_optional),
     };
     return cmocka_run_group_tests(tests, make_tmpdir, remove_tmpdir);
 }

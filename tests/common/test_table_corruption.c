@@ -172,7 +172,7 @@ static void inconsistent_records_are_refused(void **state)
     haptic_table t;
     assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
     haptic_table_error err;
-    const double nan = NAN, inf = INFINITY, neg = -1.0, big = 1e9;
+    const double nan = NAN, inf = INFINITY, neg = -1.0, big = 1e9, hot = 301.0, soft = 0.051;
     struct { uint64_t off; const void *val; size_t n; int want; const char *needle; } edits[] = {
         {t.channels_offset, &nan, 8, HAPTIC_TABLE_EFIELD, "channel 0 x_m"},
         {t.channels_offset + 24, &big, 8, HAPTIC_TABLE_EFIELD, "channel 1 y_m"},
@@ -185,6 +185,12 @@ static void inconsistent_records_are_refused(void **state)
         {t.foci_offset + 4, "\x01", 1, HAPTIC_TABLE_EFIELD, "reserved"},
         {t.provenance_offset + 2, "\x07", 1, HAPTIC_TABLE_EFIELD, "control character"},
         {t.provenance_offset + 64 + 63, "x", 1, HAPTIC_TABLE_EFIELD, "after the terminator"},
+        {t.panel_offset, &hot, 8, HAPTIC_TABLE_EFIELD, "panel temperature_c"},
+        {t.panel_offset, &nan, 8, HAPTIC_TABLE_EFIELD, "panel temperature_c"},
+        {t.panel_offset + 8, &soft, 8, HAPTIC_TABLE_EFIELD, "panel youngs_per_k"},
+        {t.panel_offset + 8, &nan, 8, HAPTIC_TABLE_EFIELD, "panel youngs_per_k"},
+        {t.panel_offset + 31, "\x01", 1, HAPTIC_TABLE_EFIELD, "panel reserved"},
+        {116, "\x01", 1, HAPTIC_TABLE_EFIELD, "header reserved"},
     };
     for (size_t i = 0; i < sizeof edits / sizeof *edits; i++) {
         memcpy(work, b, size);

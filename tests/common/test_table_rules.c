@@ -70,7 +70,7 @@ static size_t tiny_table(uint8_t **out)
     static const double cxy[] = {0.0, 0.0}, fxy[] = {0.1, 0.1, 0.2, 0.2}, scale[] = {1e-5, 1e-5}, lead[] = {0, 0};
     static const uint32_t ids[] = {1, 2};
     haptic_table_spec spec = {1000, 1, 2, 2, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL,
-                              HAPTIC_DRIVE_FORCE, 1.0, lead};
+                              HAPTIC_DRIVE_FORCE, 1.0, lead, NULL};
     size_t size = (size_t)haptic_table_encoded_size(&spec);
     *out = malloc(size);
     haptic_table_error err;
@@ -138,7 +138,7 @@ static void energy_above_2_pow_53_is_the_exact_sum_rounded_once(void **state)
     s[(size_t)n * c - 1] = 2;
     const double cxy[8] = {0}, fxy[2] = {0.1, 0.1}, scale[1] = {1e-5};
     const uint32_t ids[1] = {7};
-    haptic_table_spec spec = {48000, c, 1, n, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL, 0, 0, NULL};
+    haptic_table_spec spec = {48000, c, 1, n, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL, 0, 0, NULL, NULL};
     size_t size = (size_t)haptic_table_encoded_size(&spec);
     uint8_t *b = malloc(size);
     assert_int_equal(haptic_table_encode(&spec, b, size, NULL), 0);
@@ -248,6 +248,7 @@ static void reserved_bytes_and_gaps_are_zero_up_to_the_known_minor(void **state)
     (void)state;
     table_fixture fx;
     table_fixture_init(&fx, 2, 3, 8, 3); /* playback at 632..672, payload at 704 */
+    fx.spec.panel = NULL;
     uint8_t *b, *w;
     size_t size = table_fixture_encode(&fx, &b);
     w = malloc(size);
@@ -262,15 +263,15 @@ static void reserved_bytes_and_gaps_are_zero_up_to_the_known_minor(void **state)
         memcpy(w, b, size);
         w[edits[i].at] = edits[i].v;
         expect(w, size, HAPTIC_TABLE_EFIELD, edits[i].needle, edits[i].at, edits[i].needle);
-        put(w + 10, 2, 2); /* the same bytes in a 1.2 file: a later minor may use them */
-        expect(w, size, 0, NULL, UINT64_MAX, "minor 2");
+        put(w + 10, 2, 3); /* the same bytes in a 1.3 file: a later minor may use them */
+        expect(w, size, 0, NULL, UINT64_MAX, "minor 3");
     }
-    /* An optional flag 1.1 does not define: refused in 1.1, ignored in 1.2. */
+    /* An optional flag 1.2 does not define: refused in 1.2, ignored in 1.3. */
     memcpy(w, b, size);
     put(w + 16, 4, 0x80010000u);
-    expect(w, size, HAPTIC_TABLE_EFIELD, "optional bits 0x80000000", 16, "flag 31");
-    put(w + 10, 2, 2);
-    expect(w, size, 0, NULL, UINT64_MAX, "flag 31 in 1.2");
+    expect(w, size, HAPTIC_TABLE_EFIELD, "optional bits 0x80000000 unknown in version 1.2", 16, "flag 31");
+    put(w + 10, 2, 3);
+    expect(w, size, 0, NULL, UINT64_MAX, "flag 31 in 1.3");
     free(w);
     free(b);
     table_fixture_free(&fx);
@@ -339,6 +340,7 @@ static void playback_section_is_checked_as_documented(void **state)
     (void)state;
     table_fixture fx;
     table_fixture_init(&fx, 2, 2, 480, 4); /* 480 frames at 48 kHz: lead times up to 0.01 + 1 s */
+    fx.spec.panel = NULL;                  /* (panel_section_is_checked_as_documented) */
     uint8_t *b, *w;
     size_t size = table_fixture_encode(&fx, &b);
     w = malloc(size);
@@ -378,12 +380,53 @@ static void playback_section_is_checked_as_documented(void **state)
     memcpy(w, b, size);
     put(w + 96, 8, pb - 8);
     expect(w, size, HAPTIC_TABLE_ELAYOUT, "playback_offset", 96, "overlaps provenance");
-    /* Flag cleared in 1.1: the offset field is then reserved and must be 0. */
+    /* Flag cleared: the offset field is then reserved and must be 0. */
     memcpy(w, b, size);
     put(w + 16, 4, 0);
     expect(w, size, HAPTIC_TABLE_EFIELD, "header reserved", 96, "offset without flag");
     put(w + 96, 8, 0); /* section bytes are then a gap: 2.5 N = 0x4004000000000000 */
     expect(w, size, HAPTIC_TABLE_EFIELD, "gap between sections", pb + 6, "section without flag");
+    free(w);
+    free(b);
+    table_fixture_free(&fx);
+}
+
+/* 1.2's panel section: its ranges at their edges, its reserved bytes, its
+ * place after the playback section, its offset without its flag. */
+static void panel_section_is_checked_as_documented(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 2, 48, 4);
+    uint8_t *b, *w;
+    size_t size = table_fixture_encode(&fx, &b);
+    w = malloc(size);
+    const uint64_t pb = le64(b + 96), pn = le64(b + 104);
+    assert_int_equal(pn, pb + 16 + 2 * 8);
+    struct { uint64_t at; double f; int ok; } cases[] = {
+        {pn, -100.0, 1}, {pn, nextafter(-100.0, -200.0), 0}, {pn, 300.0, 1}, {pn, nextafter(300.0, 400.0), 0},
+        {pn, NAN, 0},    {pn, -INFINITY, 0},                 {pn + 8, 0.05, 1}, {pn + 8, -0.05, 1},
+        {pn + 8, 0.0, 1}, {pn + 8, nextafter(0.05, 1.0), 0}, {pn + 8, NAN, 0},  {pn + 16, 1e-300, 0},
+        {pn + 24, 1e-300, 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        memcpy(w, b, size);
+        put_f64(w + cases[i].at, cases[i].f);
+        char what[32];
+        snprintf(what, sizeof what, "panel case %zu", i);
+        expect(w, size, cases[i].ok ? 0 : HAPTIC_TABLE_EFIELD, NULL, cases[i].ok ? UINT64_MAX : cases[i].at, what);
+    }
+    /* It must not overlap the playback section. */
+    memcpy(w, b, size);
+    put(w + 104, 8, pn - 8);
+    expect(w, size, HAPTIC_TABLE_ELAYOUT, "panel_offset", 104, "overlaps playback");
+    /* Its flag cleared: the offset field is reserved, then the bytes a gap
+     * (23.0 = 0x4037000000000000). */
+    memcpy(w, b, size);
+    put(w + 16, 4, HAPTIC_TABLE_FLAG_PLAYBACK);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "header reserved", 104, "offset without flag");
+    put(w + 104, 8, 0);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "gap between sections", pn + 6, "section without flag");
     free(w);
     free(b);
     table_fixture_free(&fx);
@@ -438,8 +481,9 @@ static void summary_prints_the_playback_facts(void **state)
     FILE *f = fmemopen(text, sizeof text - 1, "w");
     assert_int_equal(haptic_table_print_summary(&t, "t", f), 0);
     fclose(f);
-    assert_non_null(strstr(text, "format 1.1"));
+    assert_non_null(strstr(text, "format 1.2"));
     assert_non_null(strstr(text, "hash (unknown)"));
+    assert_non_null(strstr(text, "panel        calibrated at 23.0 C, dE/E/dT -0.4 %/K"));
     assert_non_null(strstr(text, "exciter drive (Bl i), full scale (32767) = 2.5 N, 7.62963e-05 N per count"));
     assert_non_null(strstr(text, "lead 2.5 ms"));
     assert_non_null(strstr(text, "lead time    2.5..5.0 ms"));
@@ -453,6 +497,7 @@ static void faults_are_reported_in_the_documented_order(void **state)
     (void)state;
     table_fixture fx;
     table_fixture_init(&fx, 2, 3, 8, 6);
+    fx.spec.panel = NULL; /* the gap before the payload follows the playback section */
     uint8_t *b, *w;
     size_t size = table_fixture_encode(&fx, &b);
     w = malloc(size);
@@ -496,6 +541,7 @@ int main(void)
         cmocka_unit_test(reserved_bytes_and_gaps_are_zero_up_to_the_known_minor),
         cmocka_unit_test(provenance_text_is_checked_as_documented),
         cmocka_unit_test(playback_section_is_checked_as_documented),
+        cmocka_unit_test(panel_section_is_checked_as_documented),
         cmocka_unit_test(a_format_1_0_table_still_loads),
         cmocka_unit_test(summary_prints_the_playback_facts),
         cmocka_unit_test(faults_are_reported_in_the_documented_order),

@@ -60,6 +60,7 @@ void fw_table_encode(struct fw_table *t, const double *lead_time_s)
         .drive_kind = lead_time_s ? HAPTIC_DRIVE_FORCE : HAPTIC_DRIVE_UNKNOWN,
         .force_full_scale_n = lead_time_s ? 0.5 : 0.0,
         .focus_lead_time_s = lead_time_s,
+        .panel = t->panel,
     };
     free(t->buf);
     t->size = (size_t)haptic_table_encoded_size(&spec);

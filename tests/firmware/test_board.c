@@ -39,6 +39,11 @@ static const char *full =
     "bias = disable\n"
     "[mixer]\n"
     "gain_limit = 0.5\n"
+    "[panel]\n"
+    "speed_ratio = 0.987\n"
+    "temperature_input = /sys/class/hwmon/hwmon2/temp1_input\n"
+    "temperature_poll_s = 2.5\n"
+    "temperature_step_k = 0.25\n"
     "[table]\n"
     "path = /var/lib/hapticd/plate.htab\n"
     "[realtime]\n"
@@ -81,6 +86,9 @@ static void every_key(void **state)
     assert_false(b.lines[2].active_low);
     assert_int_equal(b.lines[2].bias, HD_BIAS_DISABLE);
     assert_true(b.gain_limit == 0.5);
+    assert_true(b.panel.speed_ratio == 0.987);
+    assert_string_equal(b.panel.temperature_input, "/sys/class/hwmon/hwmon2/temp1_input");
+    assert_true(b.panel.temperature_poll_s == 2.5 && b.panel.temperature_step_k == 0.25);
     assert_string_equal(b.table_path, "/var/lib/hapticd/plate.htab");
     assert_int_equal(b.rt_priority, 70);
     assert_false(b.mlock);
@@ -107,6 +115,9 @@ static void defaults(void **state)
     assert_int_equal(b.rewind_margin_frames, 32);
     assert_int_equal(b.line_count, 0);
     assert_true(b.gain_limit == 1.0);
+    assert_true(b.panel.speed_ratio == 1.0);
+    assert_string_equal(b.panel.temperature_input, "");
+    assert_true(b.panel.temperature_poll_s == 10.0 && b.panel.temperature_step_k == 0.5);
     assert_string_equal(b.table_path, "");
     assert_string_equal(b.alsa_config, "");
     assert_int_equal(b.rt_priority, 80);
@@ -179,6 +190,14 @@ static const struct bad_case cases[] = {
     {"[mixer]\ngain_limit = 17\n", "[mixer] gain_limit", 4},
     {"[mixer]\ngain_limit = nan\n", "[mixer] gain_limit", 4},
     {"[mixer]\ngain_limit = 1x\n", "[mixer] gain_limit", 4},
+    {"[panel]\nspeed_ratio = 0.79\n", "[panel] speed_ratio", 4},
+    {"[panel]\nspeed_ratio = 1.26\n", "[panel] speed_ratio", 4},
+    {"[panel]\nspeed_ratio = fast\n", "[panel] speed_ratio", 4},
+    {"[panel]\ntemperature_input = hwmon0/temp1_input\n", "[panel] temperature_input", 4},
+    {"[panel]\ntemperature_poll_s = 0\n", "[panel] temperature_poll_s", 4},
+    {"[panel]\ntemperature_step_k = 0\n", "[panel] temperature_step_k", 4},
+    {"[panel]\ntemperature_step_k = inf\n", "[panel] temperature_step_k", 4},
+    {"[panel]\nmodulus = 1\n", "[panel] modulus", 4},
     {"[table]\npath =\n", "[table] path", 4},
     {"[table]\nfile = x\n", "[table] file", 4},
     {"[realtime]\npriority = 100\n", "[realtime] priority", 4},

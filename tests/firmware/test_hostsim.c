@@ -6,6 +6,7 @@
  * the WAV (and without rewinding start on period boundaries). */
 #define _GNU_SOURCE
 #include "fw_fixture.h"
+#include "hostsim_run.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -26,86 +27,10 @@
 #include <stddef.h>
 #include <cmocka.h>
 
-extern char **environ;
-
 #define C 8u
 #define N 1000u
 #define PERIOD 64u
 #define PREFILL 128u /* host-sim: 64 frames x 2 periods */
-
-static char dir[256];
-
-static void path(char *out, size_t cap, const char *name)
-{
-    snprintf(out, cap, "%s/%s", dir, name);
-}
-
-static pid_t spawn(char *const argv[], const char *stderr_path)
-{
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 2, stderr_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    pid_t pid;
-    assert_int_equal(posix_spawn(&pid, HAPTICD_EXE, &fa, NULL, argv, environ), 0);
-    posix_spawn_file_actions_destroy(&fa);
-    return pid;
-}
-
-static int wait_exit(pid_t pid)
-{
-    int st;
-    assert_int_equal(waitpid(pid, &st, 0), pid);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-}
-
-/* A live run must end with status 0; otherwise show what hapticd said
- * (a sanitizer's report is there too). */
-static void assert_clean_exit(pid_t pid, const char *stderr_path)
-{
-    int st = wait_exit(pid);
-    if (st != 0) {
-        char buf[16384];
-        FILE *f = fopen(stderr_path, "r");
-        size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
-        buf[n] = '\0';
-        if (f)
-            fclose(f);
-        fail_msg("hapticd exited with %d; its stderr:\n%s", st, buf);
-    }
-}
-
-static void write_board_extra(const char *file, const char *format, const char *map, const char *alsa_extra)
-{
-    FILE *f = fopen(file, "w");
-    assert_non_null(f);
-    /* The shipped asoundrc, the documented host-sim parameters, a test format/map. */
-    fprintf(f, "[alsa]\ndevice = hostsim\nconfig = %.*s/asoundrc\nchannels = 8\nformat = %s\nrate_hz = 48000\n"
-               "period_frames = 64\nperiods = 2\nchannel_map = %s\npacing = clock\n%s"
-               "[realtime]\npriority = 0\nmlock = false\n",
-            (int)(strrchr(HOSTSIM_BOARD, '/') - HOSTSIM_BOARD), HOSTSIM_BOARD, format, map, alsa_extra);
-    fclose(f);
-}
-
-static void write_board(const char *file, const char *format, const char *map)
-{
-    write_board_extra(file, format, map, "");
-}
-
-static int32_t *read_wav(const char *file, sf_count_t *frames, int want_format)
-{
-    SF_INFO info = {0};
-    SNDFILE *sf = sf_open(file, SFM_READ, &info);
-    if (!sf)
-        fail_msg("%s: %s", file, sf_strerror(NULL));
-    assert_int_equal(info.channels, C);
-    assert_int_equal(info.samplerate, 48000);
-    assert_int_equal(info.format & SF_FORMAT_SUBMASK, want_format);
-    int32_t *buf = calloc((size_t)info.frames * C, sizeof *buf);
-    assert_int_equal(sf_readf_int(sf, buf, info.frames), info.frames);
-    sf_close(sf);
-    *frames = info.frames;
-    return buf;
-}
 
 /* Independent energy-normalized gain for a voice (the peak limit does not
  * bind at these amplitudes: asserted). */
@@ -132,13 +57,13 @@ static void scripted(const char *format, const char *map_text, const unsigned *m
     struct fw_table t;
     fw_table_make(&t, C, 3, N, FW_RANDOM, 6000, 77);
     char table[300], script[300], wav[300], board[300], err[300], device[400];
-    path(table, sizeof table, "plate.htab");
-    path(script, sizeof script, "script.txt");
-    path(wav, sizeof wav, "device.wav");
-    path(board, sizeof board, "board.ini");
-    path(err, sizeof err, "stderr.txt");
+    hs_path(table, sizeof table, "plate.htab");
+    hs_path(script, sizeof script, "script.txt");
+    hs_path(wav, sizeof wav, "device.wav");
+    hs_path(board, sizeof board, "board.ini");
+    hs_path(err, sizeof err, "stderr.txt");
     fw_table_write(&t, table);
-    write_board(board, format, map_text);
+    hs_write_board(board, format, map_text);
     FILE *f = fopen(script, "w");
     /* Frame stamps: 0 (before the pre-fill ends: starts at 128), 4800 (a
      * boundary: starts there), 4810 (starts at the next boundary, 4864, on
@@ -148,11 +73,11 @@ static void scripted(const char *format, const char *map_text, const unsigned *m
     fclose(f);
     snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
     char *argv[] = {"hapticd", "--board", board, "--table", table, "--script", script, "--alsa-device", device, NULL};
-    pid_t pid = spawn(argv, err);
-    assert_int_equal(wait_exit(pid), 0);
+    pid_t pid = hs_spawn(argv, err);
+    assert_int_equal(hs_wait_exit(pid), 0);
 
     sf_count_t frames;
-    int32_t *got = read_wav(wav, &frames, sf_format);
+    int32_t *got = hs_read_wav(wav, &frames, sf_format);
     const uint32_t starts[3] = {PREFILL, 4800, 4864};
     const uint32_t sets[3][2] = {{0, 0}, {1, 2}, {0, 0}};
     const uint32_t counts[3] = {1, 2, 1};
@@ -208,45 +133,6 @@ static void scripted_s16_channel_map(void **state)
     scripted("S16_LE", "3,1,7,5,0,2,4,6", map, SF_FORMAT_PCM_16, 1.0);
 }
 
-static int file_contains(const char *file, const char *needle)
-{
-    char buf[8192] = "";
-    FILE *f = fopen(file, "r");
-    if (!f)
-        return 0;
-    size_t n = fread(buf, 1, sizeof buf - 1, f);
-    buf[n] = '\0';
-    fclose(f);
-    return strstr(buf, needle) != NULL;
-}
-
-static void wait_for(const char *file, const char *needle)
-{
-    for (int i = 0; i < 500; i++) {
-        if (file_contains(file, needle))
-            return;
-        struct timespec ts = {0, 10000000};
-        nanosleep(&ts, NULL);
-    }
-    fail_msg("%s never said '%s'", file, needle);
-}
-
-static void sleep_ms(long ms)
-{
-    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000};
-    nanosleep(&ts, NULL);
-}
-
-/* Frames where a voice starts: the first non-zero frame after `from`. */
-static sf_count_t onset(const int32_t *w, sf_count_t frames, sf_count_t from)
-{
-    for (sf_count_t n = from; n < frames; n++)
-        for (uint32_t c = 0; c < C; c++)
-            if (w[n * C + c])
-                return n;
-    return -1;
-}
-
 static void assert_plays(const int32_t *w, sf_count_t at, const struct fw_table *t, uint32_t f)
 {
     for (uint32_t n = 0; n < N; n++)
@@ -263,77 +149,59 @@ static void sighup_keeps_old_table_on_corruption(void **state)
     fw_table_make(&old_t, C, 2, N, FW_RANDOM, 5000, 1);
     fw_table_make(&new_t, C, 2, N, FW_RANDOM, 5000, 2); /* same ids, other signals */
     char table[300], fifo[300], wav[300], board[300], err[300], device[400];
-    path(table, sizeof table, "live.htab");
-    path(fifo, sizeof fifo, "triggers");
-    path(wav, sizeof wav, "live.wav");
-    path(board, sizeof board, "live.ini");
-    path(err, sizeof err, "live-stderr.txt");
+    hs_path(table, sizeof table, "live.htab");
+    hs_path(fifo, sizeof fifo, "triggers");
+    hs_path(wav, sizeof wav, "live.wav");
+    hs_path(board, sizeof board, "live.ini");
+    hs_path(err, sizeof err, "live-stderr.txt");
     fw_table_write(&old_t, table);
-    write_board(board, "S32_LE", "0,1,2,3,4,5,6,7");
+    hs_write_board(board, "S32_LE", "0,1,2,3,4,5,6,7");
     unlink(fifo);
     assert_int_equal(mkfifo(fifo, 0600), 0);
     snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
     char *argv[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device, NULL};
-    pid_t pid = spawn(argv, err);
+    pid_t pid = hs_spawn(argv, err);
     int fd = open(fifo, O_WRONLY); /* blocks until hapticd has it open */
     assert_true(fd >= 0);
-    wait_for(err, "running");
-    char line[64];
-    int n = snprintf(line, sizeof line, "focus %u\n", old_t.ids[0]);
-    assert_int_equal(write(fd, line, (size_t)n), n);
-    sleep_ms(100);
+    hs_wait_for(err, "running");
+    hs_send_focus(fd, old_t.ids[0]);
+    hs_sleep_ms(100);
     /* A corrupt table (one payload byte flipped, CRC now wrong) on disk + SIGHUP. */
     old_t.buf[old_t.size - 100] ^= 0x5a;
     fw_table_write(&old_t, table);
     old_t.buf[old_t.size - 100] ^= 0x5a;
     kill(pid, SIGHUP);
-    wait_for(err, "reload refused");
-    n = snprintf(line, sizeof line, "focus %u\n", old_t.ids[1]);
-    assert_int_equal(write(fd, line, (size_t)n), n);
-    sleep_ms(100);
+    hs_wait_for(err, "reload refused");
+    hs_send_focus(fd, old_t.ids[1]);
+    hs_sleep_ms(100);
     /* A good new table is taken. */
     fw_table_write(&new_t, table);
     kill(pid, SIGHUP);
-    wait_for(err, "reloaded");
-    n = snprintf(line, sizeof line, "focus %u\n", new_t.ids[0]);
-    assert_int_equal(write(fd, line, (size_t)n), n);
-    sleep_ms(100);
+    hs_wait_for(err, "reloaded");
+    hs_send_focus(fd, new_t.ids[0]);
+    hs_sleep_ms(100);
     kill(pid, SIGTERM);
-    assert_clean_exit(pid, err);
+    hs_assert_clean_exit(pid, err);
     close(fd);
-    assert_true(file_contains(err, "stopping (drain)"));
+    assert_true(hs_file_contains(err, "stopping (drain)"));
 
     sf_count_t frames;
-    int32_t *w = read_wav(wav, &frames, SF_FORMAT_PCM_32);
-    sf_count_t a = onset(w, frames, 0);
+    int32_t *w = hs_read_wav(wav, &frames, SF_FORMAT_PCM_32);
+    sf_count_t a = hs_onset(w, frames, 0);
     assert_true(a >= 0); /* live: at once (a rewind may reach back into the pre-fill) */
     assert_plays(w, a, &old_t, 0);
-    sf_count_t b = onset(w, frames, a + N);
+    sf_count_t b = hs_onset(w, frames, a + N);
     assert_true(b > a);
     assert_plays(w, b, &old_t, 1);  /* the refused reload changed nothing */
-    sf_count_t c = onset(w, frames, b + N);
+    sf_count_t c = hs_onset(w, frames, b + N);
     assert_true(c > b);
     assert_plays(w, c, &new_t, 0);  /* the good reload took effect */
-    assert_int_equal(onset(w, frames, c + N), -1);
+    assert_int_equal(hs_onset(w, frames, c + N), -1);
     /* Clock pacing: the WAV length follows wall time (>= the 300 ms slept). */
     assert_true(frames >= 48000 * 3 / 10);
     free(w);
     fw_table_free(&old_t);
     fw_table_free(&new_t);
-}
-
-static long report_value(const char *file, const char *key)
-{
-    FILE *f = fopen(file, "r");
-    assert_non_null(f);
-    char line[256];
-    long v = -1;
-    size_t n = strlen(key);
-    while (fgets(line, sizeof line, f))
-        if (!strncmp(line, key, n) && line[n] == ' ')
-            v = strtol(line + n + 1, NULL, 10);
-    fclose(f);
-    return v;
 }
 
 /* Live FIFO triggers, the second one while the first voice still plays.
@@ -347,59 +215,57 @@ static void live_triggers(int rewind)
     struct fw_table t;
     fw_table_make(&t, C, 2, N, FW_RANDOM, 5000, 9);
     char table[300], fifo[300], wav[300], board[300], err[300], device[400], report[300];
-    path(table, sizeof table, "rw.htab");
-    path(fifo, sizeof fifo, "rw-triggers");
-    path(wav, sizeof wav, "rw.wav");
-    path(board, sizeof board, "rw.ini");
-    path(err, sizeof err, "rw-stderr.txt");
-    path(report, sizeof report, "rw-report.txt");
+    hs_path(table, sizeof table, "rw.htab");
+    hs_path(fifo, sizeof fifo, "rw-triggers");
+    hs_path(wav, sizeof wav, "rw.wav");
+    hs_path(board, sizeof board, "rw.ini");
+    hs_path(err, sizeof err, "rw-stderr.txt");
+    hs_path(report, sizeof report, "rw-report.txt");
     fw_table_write(&t, table);
-    write_board_extra(board, "S32_LE", "0,1,2,3,4,5,6,7", rewind ? "rewind = true\n" : "rewind = false\n");
+    hs_write_board_extra(board, "S32_LE", "0,1,2,3,4,5,6,7", rewind ? "rewind = true\n" : "rewind = false\n");
     unlink(fifo);
     assert_int_equal(mkfifo(fifo, 0600), 0);
     snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
     char *argv[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device,
                     "--latency-report", report, NULL};
-    pid_t pid = spawn(argv, err);
+    pid_t pid = hs_spawn(argv, err);
     int fd = open(fifo, O_WRONLY);
     assert_true(fd >= 0);
-    wait_for(err, "running");
-    sleep_ms(20);
+    hs_wait_for(err, "running");
+    hs_sleep_ms(20);
     const sf_count_t triggers = 6;
     for (int i = 0; i < triggers; i++) {
         /* pairs 10 ms apart (B starts during A's 20.8 ms; far enough apart that a
          * trigger thread held up by a loaded machine rarely reads both at once,
          * which would merge them into one voice), pairs 60 ms apart */
-        char line[64];
-        int n = snprintf(line, sizeof line, "focus %u\n", t.ids[i % 2]);
-        assert_int_equal(write(fd, line, (size_t)n), n);
-        sleep_ms(i % 2 ? 60 : 10);
+        hs_send_focus(fd, t.ids[i % 2]);
+        hs_sleep_ms(i % 2 ? 60 : 10);
     }
     kill(pid, SIGTERM);
-    assert_clean_exit(pid, err);
+    hs_assert_clean_exit(pid, err);
     close(fd);
-    assert_true(file_contains(err, rewind ? "triggers start at once" : "rewind = false"));
-    assert_int_equal(report_value(report, "triggers"), triggers);
+    assert_true(hs_file_contains(err, rewind ? "triggers start at once" : "rewind = false"));
+    assert_int_equal(hs_report_value(report, "triggers"), triggers);
     /* The fixed part of touch -> focal peak: 32 of 48000 frames kept ahead of a
      * rewound voice, else the 128-frame buffer; the table has no lead time. */
-    assert_true(file_contains(report, rewind ? "queue_ahead_ms 0.667\n" : "queue_ahead_ms 2.667\n"));
-    assert_true(file_contains(report, "lead_time_ms unknown\n"));
-    assert_true(file_contains(err, rewind ? "queue 0.667 ms (rewind margin)" : "queue 2.667 ms (no rewinding"));
-    long rewinds = report_value(report, "rewinds");
+    assert_true(hs_file_contains(report, rewind ? "queue_ahead_ms 0.667\n" : "queue_ahead_ms 2.667\n"));
+    assert_true(hs_file_contains(report, "lead_time_ms unknown\n"));
+    assert_true(hs_file_contains(err, rewind ? "queue 0.667 ms (rewind margin)" : "queue 2.667 ms (no rewinding"));
+    long rewinds = hs_report_value(report, "rewinds");
     if (rewind)
         assert_true(rewinds >= 1 && rewinds <= triggers); /* a late audio thread may leave none to rewind */
     else
         assert_int_equal(rewinds, 0);
 
     sf_count_t frames;
-    int32_t *w = read_wav(wav, &frames, SF_FORMAT_PCM_32);
+    int32_t *w = hs_read_wav(wav, &frames, SF_FORMAT_PCM_32);
     int32_t *rest = malloc((size_t)frames * C * sizeof *rest);
     memcpy(rest, w, (size_t)frames * C * sizeof *rest);
     sf_count_t from = 0;
     int off_grid = 0;
     for (int v = 0; v < triggers; v++) {
         /* A voice's onset: the first frame the voices found so far do not explain. */
-        sf_count_t at = onset(rest, frames, from);
+        sf_count_t at = hs_onset(rest, frames, from);
         assert_true(at >= 0 && at + N <= frames);
         for (uint32_t n = 0; n < N; n++)
             for (uint32_t c = 0; c < C; c++)
@@ -414,7 +280,7 @@ static void live_triggers(int rewind)
         from = at;
     }
     /* Nothing else: every frame is exactly the sum of the voices found. */
-    assert_int_equal(onset(rest, frames, 0), -1);
+    assert_int_equal(hs_onset(rest, frames, 0), -1);
     if (rewind)
         assert_true(off_grid >= 1); /* 6 starts all on the 64-frame grid by chance: 64^-6 */
     free(rest);
@@ -446,45 +312,43 @@ static void live_signals_race_the_audio_thread(void **state)
     struct fw_table t;
     fw_table_make(&t, C, 2, N, FW_RANDOM, 5000, 13);
     char table[300], fifo[300], wav[300], board[300], err[300], device[400], report[300];
-    path(table, sizeof table, "race.htab");
-    path(fifo, sizeof fifo, "race-triggers");
-    path(wav, sizeof wav, "race.wav");
-    path(board, sizeof board, "race.ini");
-    path(err, sizeof err, "race-stderr.txt");
-    path(report, sizeof report, "race-report.txt");
+    hs_path(table, sizeof table, "race.htab");
+    hs_path(fifo, sizeof fifo, "race-triggers");
+    hs_path(wav, sizeof wav, "race.wav");
+    hs_path(board, sizeof board, "race.ini");
+    hs_path(err, sizeof err, "race-stderr.txt");
+    hs_path(report, sizeof report, "race-report.txt");
     fw_table_write(&t, table);
-    write_board(board, "S32_LE", "0,1,2,3,4,5,6,7");
+    hs_write_board(board, "S32_LE", "0,1,2,3,4,5,6,7");
     unlink(fifo);
     assert_int_equal(mkfifo(fifo, 0600), 0);
     snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
     char *argv[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device,
                     "--latency-report", report, NULL};
-    pid_t pid = spawn(argv, err);
+    pid_t pid = hs_spawn(argv, err);
     int fd = open(fifo, O_WRONLY);
     assert_true(fd >= 0);
-    wait_for(err, "running");
+    hs_wait_for(err, "running");
     const int triggers = 40;
     for (int i = 0; i < triggers; i++) {
-        char line[64];
-        int n = snprintf(line, sizeof line, "focus %u\n", t.ids[i % 2]);
-        assert_int_equal(write(fd, line, (size_t)n), n);
+        hs_send_focus(fd, t.ids[i % 2]);
         if (i == 10 || i == 25)
             kill(pid, SIGHUP); /* same file: a good table, taken while voices play */
         /* the last trigger alone, well after the others, so its voice is not merged */
-        sleep_ms(i == triggers - 2 ? 40 : i == triggers - 1 ? 5 : 3);
+        hs_sleep_ms(i == triggers - 2 ? 40 : i == triggers - 1 ? 5 : 3);
     }
     kill(pid, SIGTERM); /* the last voice (20.8 ms) started about 5 ms ago: it is still playing */
-    assert_clean_exit(pid, err);
+    hs_assert_clean_exit(pid, err);
     close(fd);
-    assert_false(file_contains(err, "ThreadSanitizer"));
-    assert_true(file_contains(err, "stopping (drain)"));
-    assert_true(file_contains(err, "reloaded"));
-    assert_int_equal(report_value(report, "triggers"), triggers);
+    assert_false(hs_file_contains(err, "ThreadSanitizer"));
+    assert_true(hs_file_contains(err, "stopping (drain)"));
+    assert_true(hs_file_contains(err, "reloaded"));
+    assert_int_equal(hs_report_value(report, "triggers"), triggers);
 
     /* Drained: the last frames of the WAV are the end of the last voice,
      * which started after every other one; find it from the end. */
     sf_count_t frames;
-    int32_t *w = read_wav(wav, &frames, SF_FORMAT_PCM_32);
+    int32_t *w = hs_read_wav(wav, &frames, SF_FORMAT_PCM_32);
     sf_count_t last = -1;
     for (sf_count_t n = frames - 1; n >= 0 && last < 0; n--)
         for (uint32_t c = 0; c < C; c++)
@@ -509,9 +373,9 @@ static void bad_inputs_fail_cleanly(void **state)
 {
     (void)state;
     char err[300], script[300], table[300];
-    path(err, sizeof err, "bad-stderr.txt");
-    path(script, sizeof script, "bad-script.txt");
-    path(table, sizeof table, "bad.htab");
+    hs_path(err, sizeof err, "bad-stderr.txt");
+    hs_path(script, sizeof script, "bad-script.txt");
+    hs_path(table, sizeof table, "bad.htab");
     /* Bad script line: one-line error naming the file and the line. */
     FILE *f = fopen(script, "w");
     fprintf(f, "at 0 focus 1\nat 10 wiggle 3\n");
@@ -521,40 +385,23 @@ static void bad_inputs_fail_cleanly(void **state)
     fw_table_write(&t, table);
     char *argv1[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", table, "--script", script,
                      "--alsa-device", "null", NULL};
-    assert_int_equal(wait_exit(spawn(argv1, err)), 1);
+    assert_int_equal(hs_wait_exit(hs_spawn(argv1, err)), 1);
     char want[400];
     snprintf(want, sizeof want, "%s:2: unknown command 'wiggle'", script);
-    assert_true(file_contains(err, want));
+    assert_true(hs_file_contains(err, want));
     /* A corrupt table at start: refused, named. */
     t.buf[t.size - 10] ^= 1;
     fw_table_write(&t, table);
     char *argv2[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", table, "--script", script, NULL};
-    assert_int_equal(wait_exit(spawn(argv2, err)), 1);
-    assert_true(file_contains(err, "crc32"));
-    assert_true(file_contains(err, table));
+    assert_int_equal(hs_wait_exit(hs_spawn(argv2, err)), 1);
+    assert_true(hs_file_contains(err, "crc32"));
+    assert_true(hs_file_contains(err, table));
     char *argv3[] = {"hapticd", "--check", table, NULL};
-    assert_int_equal(wait_exit(spawn(argv3, err)), 1);
+    assert_int_equal(hs_wait_exit(hs_spawn(argv3, err)), 1);
     t.buf[t.size - 10] ^= 1;
     fw_table_write(&t, table);
-    assert_int_equal(wait_exit(spawn(argv3, err)), 0);
+    assert_int_equal(hs_wait_exit(hs_spawn(argv3, err)), 0);
     fw_table_free(&t);
-}
-
-static int setup(void **state)
-{
-    (void)state;
-    const char *tmp = getenv("TMPDIR");
-    snprintf(dir, sizeof dir, "%s/hapticd-test-XXXXXX", tmp && *tmp ? tmp : "/tmp");
-    assert_non_null(mkdtemp(dir));
-    return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    char cmd[400];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
 }
 
 int main(void)
@@ -568,5 +415,5 @@ int main(void)
         cmocka_unit_test(live_signals_race_the_audio_thread),
         cmocka_unit_test(bad_inputs_fail_cleanly),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, hs_setup, hs_teardown);
 }

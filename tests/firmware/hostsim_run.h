@@ -1,0 +1,42 @@
+/* Running the real hapticd on the host-sim board (ALSA "file" plugin) for
+ * the integration suites: a scratch folder, the process, its board, its
+ * stderr and the WAV it plays into. */
+#ifndef HOSTSIM_RUN_H
+#define HOSTSIM_RUN_H
+
+#include <sndfile.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <sys/types.h>
+
+#define HS_CHANNELS 8u
+
+extern char hs_dir[256]; /* the scratch folder of the suite (hs_setup / hs_teardown) */
+
+int hs_setup(void **state);
+int hs_teardown(void **state);
+/* hs_dir/name */
+void hs_path(char *out, size_t cap, const char *name);
+/* hapticd with argv, its stderr into stderr_path. */
+pid_t hs_spawn(char *const argv[], const char *stderr_path);
+int hs_wait_exit(pid_t pid);
+/* A live run must end with status 0; otherwise fails with what hapticd said. */
+void hs_assert_clean_exit(pid_t pid, const char *stderr_path);
+/* The host-sim board with a test format and map; `alsa_extra` lines follow
+ * the [alsa] keys (further sections may follow them too). */
+void hs_write_board_extra(const char *file, const char *format, const char *map, const char *alsa_extra);
+void hs_write_board(const char *file, const char *format, const char *map);
+/* The WAV's frames (8 channels, 48 kHz, of `want_format`), as int. */
+int32_t *hs_read_wav(const char *file, sf_count_t *frames, int want_format);
+int hs_file_contains(const char *file, const char *needle);
+/* Waits up to 5 s for `needle` in the file. */
+void hs_wait_for(const char *file, const char *needle);
+void hs_sleep_ms(long ms);
+/* Writes "focus ID" to a trigger FIFO. */
+void hs_send_focus(int fd, uint32_t id);
+/* The first frame from `from` with a non-zero sample, or -1. */
+sf_count_t hs_onset(const int32_t *w, sf_count_t frames, sf_count_t from);
+/* The number after "key " in a latency report, or -1. */
+long hs_report_value(const char *file, const char *key);
+
+#endif
