@@ -14,7 +14,8 @@
  *
  * alpha, the speed ratio, is what a resonance of the panel measured against
  * the same resonance of the calibrated plate gives (E, rho and d of a batch
- * at once); a temperature change moves it by sqrt(1 + (dE/E/dT) dT).
+ * at once); a temperature change moves it by sqrt(1 + (dE/E/dT) dT). It is
+ * not the ratio of bending-wave speeds at one frequency: that is sqrt(alpha).
  *
  * The drive is resampled with soxr (linear phase, 20-bit quality), so its
  * frame n of the output is the input at time n * alpha; the result is rounded
@@ -28,9 +29,10 @@
 extern "C" {
 #endif
 
-/* The speed ratios a stretch takes: a panel within a factor 1.25 of the
- * calibrated plate's wave speed (E or d off by half, or a 0.2 K change of a
- * polymer's 0.4 %/K ... far beyond any tolerance a table survives). */
+/* The speed ratios a stretch takes: a panel whose response runs up to 1.25
+ * times faster or slower than the calibrated plate's (d off by 20-25 %, E by
+ * 36-56 %, acrylic 90 K off its calibration temperature: far beyond any
+ * panel a table is meant for). */
 #define HAPTIC_STRETCH_MIN_RATIO 0.8
 #define HAPTIC_STRETCH_MAX_RATIO 1.25
 

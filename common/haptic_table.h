@@ -188,6 +188,11 @@ void haptic_table_close(haptic_table *t);
 int haptic_table_focus(const haptic_table *t, uint32_t index, haptic_focus_info *out);
 int haptic_table_channel_position(const haptic_table *t, uint32_t channel, double *x_m, double *y_m);
 double haptic_table_gram(const haptic_table *t, uint32_t i, uint32_t j);   /* NaN if out of range */
+/* The Gram matrix of K signals of n int16 samples each (signal f at
+ * signals + f n) into gram[K][K], row-major: exact integer inner products
+ * rounded once to double, as a table's own (for drives derived from a
+ * table, e.g. stretched: haptic_stretch.h). K (K + 1) / 2 n products. */
+void haptic_table_gram_of(const int16_t *signals, uint32_t K, uint64_t n, double *gram);
 const int16_t *haptic_table_signal(const haptic_table *t, uint32_t focus); /* [n][c] interleaved */
 void haptic_table_provenance(const haptic_table *t, haptic_provenance *out);
 /* Table-level playback facts (1.1): NaN / HAPTIC_DRIVE_UNKNOWN for a 1.0 table. */

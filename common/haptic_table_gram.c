@@ -1,6 +1,6 @@
 /* haptic_table_gram.c - the exact inner product behind the Gram matrix, for
- * the writer (which computes it) and the reader (which checks it against the
- * payload). Its own unit so the build can give this one loop the vectoriser
+ * the writer (which computes it), the reader (which checks it against the
+ * payload) and the Gram matrix of derived drives (haptic_table_gram_of). Its own unit so the build can give this one loop the vectoriser
  * (common/CMakeLists.txt); the arithmetic is integer, so the result does not
  * depend on how the compiler orders the sum. */
 #include "haptic_table_internal.h"
@@ -27,4 +27,12 @@ int64_t haptic_table_dot_(const int16_t *a, const int16_t *b, uint64_t n)
         total += (int64_t)hi * 65536 + lo;
     }
     return total;
+}
+
+void haptic_table_gram_of(const int16_t *signals, uint32_t K, uint64_t n, double *gram)
+{
+    for (uint32_t i = 0; i < K; i++)
+        for (uint32_t j = 0; j <= i; j++)
+            gram[(size_t)i * K + j] = gram[(size_t)j * K + i] =
+                (double)haptic_table_dot_(signals + (size_t)i * n, signals + (size_t)j * n, n);
 }

@@ -64,12 +64,14 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
     spec.focus_lead_time_s = lead.data();
     // The plate the drives are for, for the device's temperature compensation
     // (common/haptic_stretch.h): its temperature and dE/E/dT (the tolerance
-    // box's, when the scene states one, else the material's).
+    // box's, when the scene states one, else the material's). Left out when
+    // dE/E/dT is unknown (a custom material without E_per_k): a device must
+    // not take 0 for it.
     haptic_panel panel{};
     panel.temperature_c = in.plate_temperature_c;
-    panel.youngs_per_k = in.tolerance && in.tolerance->youngs_per_kelvin ? *in.tolerance->youngs_per_kelvin
-                                                                          : in.plate->params().material.youngs_per_kelvin;
-    spec.panel = &panel;
+    const bool stated = in.tolerance && in.tolerance->youngs_per_kelvin;
+    panel.youngs_per_k = stated ? *in.tolerance->youngs_per_kelvin : in.plate->params().material.youngs_per_kelvin;
+    spec.panel = stated || panel.youngs_per_k != 0 ? &panel : nullptr;
     haptic_table_error err{};
     if (haptic_table_write(path.c_str(), &spec, &err) != 0)
         throw std::runtime_error(path + ": " + err.message);

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -316,10 +317,15 @@ std::vector<std::vector<int16_t>> stretched(const std::vector<std::vector<int16_
     for (const std::vector<int16_t> &s : signals) {
         const auto frames = static_cast<uint32_t>(s.size() / std::max<std::size_t>(channels, 1));
         std::vector<int16_t> t(std::size_t(haptic_stretch_frames(frames, speed_ratio)) * channels);
-        if (t.empty() || haptic_stretch(s.data(), frames, static_cast<uint32_t>(channels), speed_ratio, t.data(),
-                                        nullptr) != 0)
-            throw std::invalid_argument("speed compensation: a speed ratio of " + std::to_string(speed_ratio) +
-                                        " is beyond what a device stretches (0.8-1.25)");
+        if (t.empty())
+            throw std::invalid_argument("speed compensation: a speed ratio of " + fmt("%.4f", speed_ratio) +
+                                        " is beyond what a device stretches (" + fmt("%g", HAPTIC_STRETCH_MIN_RATIO) +
+                                        "-" + fmt("%g", HAPTIC_STRETCH_MAX_RATIO) + ")");
+        if (const int rc = haptic_stretch(s.data(), frames, static_cast<uint32_t>(channels), speed_ratio, t.data(),
+                                          nullptr);
+            rc != 0)
+            throw std::runtime_error("speed compensation: the resampler failed (" + std::string(std::strerror(-rc)) +
+                                     ")");
         out.push_back(std::move(t));
     }
     return out;

@@ -77,8 +77,9 @@ ToleranceReport tolerance_stage(const CalibrationInput &in, const TransferMatrix
         r.nominal_design_worst = worst_of(theirs);
     if (in.tolerance && in.tolerance->speed_compensation) {
         // The box as the device meets it: each plate at its speed ratio.
-        std::vector<CaseFigures> mine_c{r.nominal}, theirs_c(r.nominal_design ? 1 : 0, theirs.empty() ? CaseFigures{}
-                                                                                                     : theirs.front());
+        std::vector<CaseFigures> mine_c{r.nominal}, theirs_c;
+        if (r.nominal_design)
+            theirs_c.push_back(*r.nominal_design);
         for (const ToleranceCase &c : r.cases) {
             mine_c.push_back(c.compensated.value_or(c.table));
             if (c.nominal_design)

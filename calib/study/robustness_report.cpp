@@ -147,31 +147,48 @@ std::string write_robustness_report(const RobustnessResult &r, const std::string
         throw std::runtime_error(dir + ": cannot create the report directory: " + ec.message());
     const pipeline::ToleranceReport &rep = r.report;
     std::ostringstream csv;
+    const bool compensation = r.box.spec.speed_compensation;
     csv << "case,factor,E_scale,rho_scale,thickness_scale,loss_factor,temperature_k,exciter_shift_mm," << figure_columns;
-    if (r.robust) {  // the plain design's figures beside the robust table's
+    auto more_columns = [&](const char *prefix) {
         std::istringstream cols(figure_columns);
         for (std::string col; std::getline(cols, col, ',');)
-            csv << ",plain_" << col;
+            csv << ',' << prefix << col;
+    };
+    if (r.robust)  // the plain design's figures beside the robust table's
+        more_columns("plain_");
+    if (compensation) {  // as the device plays each plate: stretched by its speed ratio (empty where it is 1)
+        csv << ",speed_ratio";
+        more_columns("compensated_");
+        if (r.robust)
+            more_columns("plain_compensated_");
     }
     csv << ",transfer_matrix,seconds\n";
+    auto figures_or_empty = [&](const std::optional<CaseFigures> &c) {
+        if (c)
+            csv_figures(csv, *c);
+        else
+            csv << ",,,,,,,,,,";
+    };
     auto row = [&](const std::string &name, const std::string &factor, const pipeline::Perturbation &p,
-                   const CaseFigures &c, const std::optional<CaseFigures> &plain, double s, const char *H) {
+                   const CaseFigures &c, const ToleranceCase *tc, double s, const char *H) {
         csv << '"' << name << "\"," << factor << ',' << p.youngs_scale << ',' << p.density_scale << ','
             << p.thickness_scale << ',' << r.box.nominal_loss * p.loss_scale << ',' << p.temperature_k << ','
             << exciter_shift_mm(p);
         csv_figures(csv, c);
-        if (r.robust) {
-            if (plain)
-                csv_figures(csv, *plain);
-            else
-                csv << ",,,,,,,,,,";
+        if (r.robust)
+            figures_or_empty(tc ? tc->nominal_design : rep.nominal_design);
+        if (compensation) {
+            csv << ',' << (tc ? tc->speed_ratio : 1.0);
+            figures_or_empty(tc ? tc->compensated : std::nullopt);
+            if (r.robust)
+                figures_or_empty(tc ? tc->nominal_design_compensated : std::nullopt);
         }
         csv << ',' << H << ',' << s << '\n';
     };
     pipeline::Perturbation none;
-    row("nominal", "nominal", none, rep.nominal, rep.nominal_design, 0, "simulated");
+    row("nominal", "nominal", none, rep.nominal, nullptr, 0, "simulated");
     for (const ToleranceCase &c : rep.cases)
-        row(c.perturbation.name, c.perturbation.factor, c.perturbation, c.table, c.nominal_design, c.seconds,
+        row(c.perturbation.name, c.perturbation.factor, c.perturbation, c.table, &c, c.seconds,
             c.rescaled ? "rescaled" : "simulated");
     io::write_file_atomic(dir + "/robustness.csv", csv.str());
 
@@ -209,10 +226,20 @@ std::string write_robustness_report(const RobustnessResult &r, const std::string
         md << figures_md(c.perturbation.name, c.table, r.foci);
         if (c.nominal_design)
             md << figures_md(c.perturbation.name + ", plain design", *c.nominal_design, r.foci);
+        const std::string at = fmt(", compensated x%.4f", c.speed_ratio);
+        if (c.compensated)
+            md << figures_md(c.perturbation.name + at, *c.compensated, r.foci);
+        if (c.nominal_design_compensated)
+            md << figures_md(c.perturbation.name + ", plain design" + at, *c.nominal_design_compensated, r.foci);
     }
     md << figures_md("**worst over the box**", rep.worst, r.foci);
     if (rep.nominal_design_worst)
         md << figures_md("**worst over the box, plain design**", *rep.nominal_design_worst, r.foci);
+    if (rep.compensated_worst)
+        md << figures_md("**worst over the box, speed compensated**", *rep.compensated_worst, r.foci);
+    if (rep.nominal_design_compensated_worst)
+        md << figures_md("**worst over the box, plain design, speed compensated**",
+                         *rep.nominal_design_compensated_worst, r.foci);
     md << "\nWhat costs most (worst-focus whole-area contrast against the nominal plate, "
           "`robustness_tornado.svg`):\n\n";
     for (const Row &x : rows) {

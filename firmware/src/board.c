@@ -362,7 +362,7 @@ static int handler(void *user, const char *section, const char *name, const char
             return copy_str(c, section, name, p->temperature_input, sizeof p->temperature_input, value);
         }
         if (!strcmp(name, "temperature_poll_s"))
-            return number_key(c, section, name, value, 0.05, true, 3600.0, &p->temperature_poll_s);
+            return number_key(c, section, name, value, 0.2, true, 3600.0, &p->temperature_poll_s);
         if (!strcmp(name, "temperature_step_k"))
             return number_key(c, section, name, value, 0.0, false, 50.0, &p->temperature_step_k);
         return bad(c, section, name, "unknown key");

@@ -62,8 +62,9 @@ struct hd_board {
     /* [panel]: the panel the table plays on, against the plate it was
      * calibrated for (speed compensation, panel.h) */
     struct hd_panel_board {
-        double speed_ratio;        /* its bending-wave speed over the calibrated plate's at the calibration
-                                      temperature (a measured resonance over the same calibrated one) */
+        double speed_ratio;        /* how many times faster its response runs than the calibrated plate's, at
+                                      the calibration temperature: a measured resonance over the same one of
+                                      the calibrated plate (not a wave-speed ratio: that is its square root) */
         char temperature_input[HD_PATH_MAX]; /* file with its temperature in millidegrees C, "" if none */
         double temperature_poll_s; /* how often that file is read */
         double temperature_step_k; /* the drives are stretched again when it moved this much */

@@ -65,9 +65,11 @@ struct daemon {
     struct hd_latency_chain chain; /* touch -> focal peak, for the current table */
     int rewind_at_start;      /* the PCM rewinds (probed before the threads start) */
     double buffer_latency_s;  /* as granted by ALSA */
-    double celsius;           /* panel temperature the current table is stretched for; NAN: no sensor */
+    double celsius;           /* panel temperature the current table is stretched for; NAN: none read */
+    double refused_celsius;   /* a temperature the table could not be stretched for; NAN: none */
     double next_poll_s;       /* CLOCK_MONOTONIC time of the next temperature reading */
     int sensor_failing;       /* the last reading failed (logged once per failing stretch) */
+    struct hd_program *latest; /* the program handed over last: what a temperature step stretches again */
 };
 
 static void usage(FILE *f)
@@ -123,39 +125,45 @@ static const char *table_path(const struct daemon *d)
     return d->opt.table ? d->opt.table : d->board.table_path;
 }
 
-/* The table, stretched for the panel at temperature `celsius` (NAN: no
- * sensor): the board's speed ratio and the temperature through the table's
- * panel section (panel.h). */
+/* Stretches p for the panel at temperature `celsius` (NAN: none read): the
+ * board's speed ratio and the temperature through the table's panel section
+ * (panel.h). */
+static int stretch_for_panel(struct daemon *d, struct hd_program *p, double celsius, char err[HD_ERR_MAX])
+{
+    double ratio;
+    int rc;
+    if ((rc = hd_panel_speed_ratio(&d->board.panel, &p->table, celsius, &ratio, err)) != 0 ||
+        (rc = hd_program_set_speed(p, ratio, err)) != 0)
+        return rc;
+    if (ratio == 1.0)
+        return 0;
+    char at[48] = "";
+    if (!isnan(celsius))
+        snprintf(at, sizeof at, ", panel at %.2f C", celsius);
+    hd_log(LOG_INFO, "panel: drives played %.5f times as fast as stored (board speed ratio %.5f%s), %u frames each%s",
+           ratio, d->board.panel.speed_ratio, at, p->samples,
+           p->stretch_clipped ? ", some samples saturated" : "");
+    return 0;
+}
+
+/* The table file, stretched for the panel at `celsius`. */
 static int load_program(struct daemon *d, double celsius, struct hd_program **out, char err[HD_ERR_MAX])
 {
     struct hd_program *p;
     int rc = hd_program_load(table_path(d), &d->board, &p, err);
     if (rc)
         return rc;
-    double ratio;
-    if ((rc = hd_panel_speed_ratio(&d->board.panel, &p->table, celsius, &ratio, err)) != 0 ||
-        (rc = hd_program_set_speed(p, ratio, err)) != 0) {
+    if ((rc = stretch_for_panel(d, p, celsius, err)) != 0) {
         hd_program_free(p);
         return rc;
     }
-    if (ratio != 1.0)
-        hd_log(LOG_INFO, "panel: drives played %.5f times as fast as stored (board speed ratio %.5f%s%.2f C), "
-                         "%u frames each%s",
-               ratio, d->board.panel.speed_ratio, isnan(celsius) ? "" : ", panel at ", isnan(celsius) ? 0.0 : celsius,
-               p->samples, p->stretch_clipped ? ", some samples saturated" : "");
     *out = p;
     return 0;
 }
 
-static int reload(struct daemon *d, double celsius)
+/* Hands p (owned from here) to the audio thread, stretched for `celsius`. */
+static int hand_over(struct daemon *d, struct hd_program *p, double celsius, const char *what)
 {
-    struct hd_program *p;
-    char err[HD_ERR_MAX];
-    hd_engine_collect(&d->engine);
-    if (load_program(d, celsius, &p, err) != 0) {
-        hd_log(LOG_ERR, "reload refused, the current table keeps playing: %s", err);
-        return -1;
-    }
     /* The audio thread takes a new table only after the one before the current
      * is retired; wait for that (a signal length at most). */
     int rc = hd_engine_offer(&d->engine, p);
@@ -166,12 +174,14 @@ static int reload(struct daemon *d, double celsius)
         rc = hd_engine_offer(&d->engine, p);
     }
     if (rc != 0) {
-        hd_log(LOG_ERR, "reload refused: the previous reload is still being taken over");
+        hd_log(LOG_ERR, "%s refused: the previous hand-over is still being taken over", what);
         hd_program_free(p);
         return -1;
     }
+    d->latest = p; /* alive until a later one is handed over and this one retired (freed here) */
     d->celsius = celsius;
-    hd_log(LOG_INFO, "reloaded %s (%u foci, %u channels, %u samples)", table_path(d), p->focus_count,
+    d->refused_celsius = NAN;
+    hd_log(LOG_INFO, "%s %s (%u foci, %u channels, %u samples)", what, table_path(d), p->focus_count,
            p->channel_count, p->samples);
     if (d->have_touch) {
         /* The touchscreen takes the new foci at its next event. */
@@ -186,6 +196,38 @@ static int reload(struct daemon *d, double celsius)
     return 0;
 }
 
+/* SIGHUP: the table file again, stretched for the current temperature. */
+static void reload(struct daemon *d)
+{
+    struct hd_program *p;
+    char err[HD_ERR_MAX];
+    hd_engine_collect(&d->engine);
+    if (load_program(d, d->celsius, &p, err) != 0) {
+        hd_log(LOG_ERR, "reload refused, the current table keeps playing: %s", err);
+        return;
+    }
+    hand_over(d, p, d->celsius, "reloaded");
+}
+
+/* A temperature step: the table playing now (not the file, which SIGHUP
+ * reloads), stretched for `celsius`. A temperature it cannot be stretched
+ * for is logged once and not tried again until the panel moves a step on. */
+static void restretch(struct daemon *d, double celsius)
+{
+    struct hd_program *p;
+    char err[HD_ERR_MAX];
+    hd_engine_collect(&d->engine);
+    int rc = hd_program_clone(d->latest, &d->board, &p, err);
+    if (rc == 0 && (rc = stretch_for_panel(d, p, celsius, err)) != 0)
+        hd_program_free(p);
+    if (rc != 0) {
+        hd_log(LOG_ERR, "panel at %.2f C: the table keeps playing as it is: %s", celsius, err);
+        d->refused_celsius = celsius;
+        return;
+    }
+    hand_over(d, p, celsius, "re-stretched");
+}
+
 static double monotonic_s(void)
 {
     struct timespec ts;
@@ -194,9 +236,9 @@ static double monotonic_s(void)
 }
 
 /* Every temperature_poll_s: read the panel temperature; once it has moved
- * temperature_step_k from the one the table is stretched for, hand over the
- * table stretched for the new one (a reload, off the real-time path). A
- * sensor that cannot be read leaves the current table playing. */
+ * temperature_step_k from the one the table is stretched for (or is read for
+ * the first time), hand over the table stretched for it, off the real-time
+ * path. A sensor that cannot be read leaves the current table playing. */
 static void poll_temperature(struct daemon *d)
 {
     const struct hd_panel_board *pb = &d->board.panel;
@@ -207,18 +249,22 @@ static void poll_temperature(struct daemon *d)
     char err[HD_ERR_MAX];
     if (hd_panel_read_celsius(pb->temperature_input, &t, err) != 0) {
         if (!d->sensor_failing)
-            hd_log(LOG_WARNING, "panel temperature unreadable, the table stays stretched for %.2f C: %s", d->celsius,
-                   err);
+            hd_log(LOG_WARNING, "panel temperature unreadable, the table keeps playing as it is: %s", err);
         d->sensor_failing = 1;
         return;
     }
     if (d->sensor_failing)
         hd_log(LOG_INFO, "panel temperature readable again: %.2f C", t);
     d->sensor_failing = 0;
-    if (fabs(t - d->celsius) < pb->temperature_step_k)
+    if (fabs(t - d->celsius) < pb->temperature_step_k ||
+        (!isnan(d->refused_celsius) && fabs(t - d->refused_celsius) < pb->temperature_step_k))
         return;
-    hd_log(LOG_INFO, "panel temperature %.2f C (the table is stretched for %.2f C): stretching again", t, d->celsius);
-    reload(d, t);
+    if (isnan(d->celsius))
+        hd_log(LOG_INFO, "panel temperature %.2f C: stretching the table for it", t);
+    else
+        hd_log(LOG_INFO, "panel temperature %.2f C (the table is stretched for %.2f C): stretching again", t,
+               d->celsius);
+    restretch(d, t);
 }
 
 /* ---- main ---- */
@@ -396,7 +442,7 @@ static int run_live(struct daemon *d)
         hd_engine_collect(&d->engine);
         hd_stats_log(&d->engine, &last);
         if (sig == SIGHUP)
-            reload(d, d->celsius);
+            reload(d);
         else if (sig == SIGTERM || sig == SIGINT)
             break;
         poll_temperature(d);
@@ -431,11 +477,15 @@ int main(int argc, char **argv)
         hd_log(LOG_ERR, "no table: pass --table or set [table] path in %s", d.board.path);
         return 1;
     }
-    d.celsius = NAN;
+    d.celsius = d.refused_celsius = NAN;
     if (d.board.panel.temperature_input[0]) {
+        /* A sensor whose driver probes late is not fatal: the table plays at
+         * the board's speed ratio until the temperature can be read. */
         if (hd_panel_read_celsius(d.board.panel.temperature_input, &d.celsius, err) != 0) {
-            hd_log(LOG_ERR, "[panel] temperature_input: %s", err);
-            return 1;
+            hd_log(LOG_WARNING, "[panel] temperature_input: %s: the table plays at the board's speed ratio until it "
+                                "can be read", err);
+            d.celsius = NAN;
+            d.sensor_failing = 1;
         }
         d.next_poll_s = monotonic_s() + d.board.panel.temperature_poll_s;
     }
@@ -444,6 +494,7 @@ int main(int argc, char **argv)
         hd_log(LOG_ERR, "%s", err);
         return 1;
     }
+    d.latest = prog;
     d.triggers.host_fd = -1;
     d.stop_pipe[0] = d.stop_pipe[1] = -1;
     d.player.trigger_efd = d.player.timer_fd = -1;

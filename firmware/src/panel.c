@@ -45,13 +45,14 @@ int hd_panel_speed_ratio(const struct hd_panel_board *pb, const haptic_table *t,
                          char err[HD_ERR_MAX])
 {
     double alpha = pb->speed_ratio;
+    haptic_panel panel;
+    const int known = haptic_table_panel(t, &panel) == 0;
+    if ((pb->temperature_input[0] || !isnan(celsius)) && !known) {
+        snprintf(err, HD_ERR_MAX, "[panel] temperature_input: the table has no panel section (format 1.2 from "
+                                  "calibgen): its calibration temperature and dE/E/dT are unknown");
+        return -EINVAL;
+    }
     if (!isnan(celsius)) {
-        haptic_panel panel;
-        if (haptic_table_panel(t, &panel) != 0) {
-            snprintf(err, HD_ERR_MAX, "[panel] temperature_input: the table has no panel section (format 1.2 "
-                                      "from calibgen): its calibration temperature and dE/E/dT are unknown");
-            return -EINVAL;
-        }
         const double e = 1.0 + panel.youngs_per_k * (celsius - panel.temperature_c);
         alpha *= e > 0 ? sqrt(e) : NAN;
     }

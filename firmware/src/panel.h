@@ -22,10 +22,11 @@
  * newline. 0, or -errno with "PATH: what" in err. */
 int hd_panel_read_celsius(const char *path, double *celsius, char err[HD_ERR_MAX]);
 
-/* alpha for this board and table at temperature `celsius` (NAN: no sensor,
+/* alpha for this board and table at temperature `celsius` (NAN: none read,
  * the board's speed ratio alone). -EINVAL with a one-line message when the
- * table has no panel section for a temperature, or alpha falls outside
- * what a drive is stretched by (HAPTIC_STRETCH_MIN_RATIO..MAX_RATIO). */
+ * table has no panel section and the board has a sensor (or a temperature
+ * is given), or alpha falls outside what a drive is stretched by
+ * (HAPTIC_STRETCH_MIN_RATIO..MAX_RATIO). */
 int hd_panel_speed_ratio(const struct hd_panel_board *pb, const haptic_table *t, double celsius, double *ratio,
                          char err[HD_ERR_MAX]);
 

@@ -125,54 +125,89 @@ int hd_program_load(const char *path, const struct hd_board *b, struct hd_progra
     return 0;
 }
 
+/* Drops a stretch: the program plays the table as stored again. */
+static void unstretch(struct hd_program *p)
+{
+    free(p->stretched);
+    free(p->gram);
+    p->stretched = NULL;
+    p->gram = NULL;
+    p->samples = p->table.samples_per_signal;
+    p->speed_ratio = 1.0;
+    p->stretch_clipped = 0;
+}
+
 int hd_program_set_speed(struct hd_program *p, double speed_ratio, char err[HD_ERR_MAX])
 {
     if (speed_ratio == p->speed_ratio)
         return 0;
     const uint32_t N = p->table.samples_per_signal, C = p->channel_count, K = p->focus_count;
     const uint32_t M = haptic_stretch_frames(N, speed_ratio);
-    if (M == 0 || p->stretched) {
-        if (p->stretched)
-            snprintf(err, HD_ERR_MAX, "speed ratio %.6g: the program is stretched already", speed_ratio);
-        else
-            snprintf(err, HD_ERR_MAX, "speed ratio %.6g: outside %g..%g", speed_ratio, HAPTIC_STRETCH_MIN_RATIO,
-                     HAPTIC_STRETCH_MAX_RATIO);
+    if (p->stretched) {
+        snprintf(err, HD_ERR_MAX, "speed ratio %.6g: the program is stretched already", speed_ratio);
         return -EINVAL;
     }
-    if ((uint64_t)M * C * K > (uint64_t)SIZE_MAX / sizeof(int16_t) / 2)
-        goto nomem;
+    if (M == 0) {
+        snprintf(err, HD_ERR_MAX, "speed ratio %.6g: outside %g..%g", speed_ratio, HAPTIC_STRETCH_MIN_RATIO,
+                 HAPTIC_STRETCH_MAX_RATIO);
+        return -EINVAL;
+    }
+    const uint64_t products = (uint64_t)K * (K + 1) / 2 * M * C;
+    if (products > HD_STRETCH_MAX_PRODUCTS) {
+        snprintf(err, HD_ERR_MAX,
+                 "%u foci x %u frames x %u channels: the stretched drives' Gram matrix takes %.3g products, more "
+                 "than the %.3g a stretch may take on the main thread",
+                 (unsigned)K, (unsigned)M, (unsigned)C, (double)products, (double)HD_STRETCH_MAX_PRODUCTS);
+        return -E2BIG;
+    }
+    int rc = -ENOMEM;
     p->stretched = malloc((size_t)M * C * K * sizeof *p->stretched);
     p->gram = malloc((size_t)K * K * sizeof *p->gram);
     if (!p->stretched || !p->gram)
-        goto nomem;
+        goto fail;
     for (uint32_t f = 0; f < K; f++) {
-        int rc = haptic_stretch(haptic_table_signal(&p->table, f), N, C, speed_ratio,
-                                p->stretched + (size_t)f * M * C, &p->stretch_clipped);
-        if (rc == -ENOMEM)
-            goto nomem;
-        if (rc) {
-            snprintf(err, HD_ERR_MAX, "speed ratio %.6g: the resampler failed", speed_ratio);
-            return rc;
-        }
+        rc = haptic_stretch(haptic_table_signal(&p->table, f), N, C, speed_ratio, p->stretched + (size_t)f * M * C,
+                            &p->stretch_clipped);
+        if (rc)
+            goto fail;
     }
-    /* Exact: int16 products summed in int64 (M C <= 2^27, each <= 2^30), as
-     * the table's own Gram matrix is. */
-    for (uint32_t i = 0; i < K; i++)
-        for (uint32_t j = 0; j <= i; j++) {
-            const int16_t *a = p->stretched + (size_t)i * M * C, *b = p->stretched + (size_t)j * M * C;
-            int64_t acc = 0;
-            for (size_t n = 0; n < (size_t)M * C; n++)
-                acc += (int32_t)a[n] * b[n];
-            p->gram[(size_t)i * K + j] = p->gram[(size_t)j * K + i] = (double)acc;
-        }
+    /* Exact, as the table's own: the mixer's energy normalisation holds for what plays. */
+    haptic_table_gram_of(p->stretched, K, (uint64_t)M * C, p->gram);
     p->samples = M;
     p->speed_ratio = speed_ratio;
+    if ((rc = compute_block_peaks(p)) == 0)
+        return 0;
+fail:
+    unstretch(p);
     if (compute_block_peaks(p) != 0)
-        goto nomem;
+        rc = -ENOMEM;
+    if (rc == -ENOMEM)
+        snprintf(err, HD_ERR_MAX, "out of memory stretching the table by %.6g", speed_ratio);
+    else
+        snprintf(err, HD_ERR_MAX, "speed ratio %.6g: the resampler failed", speed_ratio);
+    return rc;
+}
+
+int hd_program_clone(const struct hd_program *src, const struct hd_board *b, struct hd_program **out,
+                     char err[HD_ERR_MAX])
+{
+    void *copy = malloc(src->table.size);
+    if (!copy) {
+        snprintf(err, HD_ERR_MAX, "out of memory copying the table");
+        return -ENOMEM;
+    }
+    memcpy(copy, src->table.data, src->table.size);
+    haptic_table t = src->table; /* the offsets hold for the copy: the bytes are the same */
+    t.data = copy;
+    t.owned = NULL;
+    int rc = hd_program_from_table(&t, b, out, err);
+    if (rc) {
+        free(copy);
+        return rc;
+    }
+    (*out)->table.owned = copy;
+    snprintf((*out)->path, sizeof (*out)->path, "%s", src->path);
     return 0;
-nomem:
-    snprintf(err, HD_ERR_MAX, "out of memory stretching the table by %.6g", speed_ratio);
-    return -ENOMEM;
 }
 
 void hd_program_free(struct hd_program *p)

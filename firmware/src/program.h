@@ -36,6 +36,12 @@ struct hd_program {
  * count = channel_map length), precompute. One-line error in err. */
 int hd_program_load(const char *path, const struct hd_board *b, struct hd_program **out, char err[HD_ERR_MAX]);
 
+/* A new program of the same table as `src` (its own copy of the file
+ * bytes, already validated), not stretched: what a temperature step
+ * stretches again without reading the file. */
+int hd_program_clone(const struct hd_program *src, const struct hd_board *b, struct hd_program **out,
+                     char err[HD_ERR_MAX]);
+
 /* Same from a table already validated in memory (tests, benchmarks); the
  * program takes ownership of nothing: the caller keeps `data` alive. */
 int hd_program_from_table(const haptic_table *t, const struct hd_board *b, struct hd_program **out,
@@ -43,8 +49,12 @@ int hd_program_from_table(const haptic_table *t, const struct hd_board *b, struc
 
 /* Plays the table `speed_ratio` times as fast (panel.h): stretches every
  * drive (common/haptic_stretch.h), computes their Gram matrix exactly and
- * the peak envelope again. Before the program is handed to the engine.
- * 0, or -EINVAL / -ENOMEM with a one-line message. */
+ * the peak envelope again. Before the program is handed to the engine, once.
+ * 0; or -EINVAL (a ratio outside the range, a program stretched already),
+ * -E2BIG (more than HD_STRETCH_MAX_PRODUCTS for the Gram matrix), -ENOMEM or
+ * -EIO (the resampler), with a one-line message, the program then playing the
+ * table as stored. */
+#define HD_STRETCH_MAX_PRODUCTS ((uint64_t)1 << 34) /* ~1.7e10: seconds on the main thread, not minutes */
 int hd_program_set_speed(struct hd_program *p, double speed_ratio, char err[HD_ERR_MAX]);
 
 void hd_program_free(struct hd_program *p);

@@ -4,18 +4,25 @@
 // every displacement by s, so contrast and timing stay and peaks scale by 1/s
 // (a simulated plate, checked against the nominal one; E alone must move
 // them); impossible boxes are refused in one line naming the key; an
-// ensemble of the nominal plate alone is the plain design.
+// ensemble of the nominal plate alone is the plain design; the table
+// stretched by a panel's speed ratio gives the nominal field on simulated
+// faster and slower plates, and the tolerance stage and the study report it.
 #include "pipeline/calibrate.h"
 #include "pipeline/robust.h"
 #include "pipeline/tolerance.h"
 #include "pipeline/verification.h"
 #include "scene/calibration_input.h"
+#include "study/robustness.h"
 #include "scene_text.h"
 
 #include <gtest/gtest.h>
+#include <haptic_table.h>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 
 using namespace calib;
 using pipeline::Perturbation;
@@ -373,4 +380,104 @@ TEST(Robustness, SpeedCompensationPlaysTheNominalFieldOnAFasterOrSlowerPanel)
     } catch (const std::exception &e) {
         EXPECT_STREQ(e.what(), "robust.toml: tolerance.speed_compensation: must be true or false");
     }
+}
+
+TEST(Robustness, TheStudyReportsThePlatesAsTheDeviceCompensatesThem)
+{
+    // calibgen study robustness on a box with speed compensation: the CSV
+    // gives each plate its speed ratio and, where it is not 1, the figures of
+    // the stretched table; those equal the nominal plate's (the compensation
+    // is exact on a plate that differs only in kappa and mass), and the
+    // summary names the worst case compensated.
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / "robustness-study-compensated";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string scene = (dir / "box.toml").string();
+    {
+        std::ofstream f(scene);
+        f << base_scene << "\n[tolerance]\nE_rel = 0.03\nthickness_rel = 0.05\nloss_scale = [1.5]\n"
+                           "speed_compensation = true\n";
+    }
+    study::RobustnessOptions o;
+    o.scene_path = scene;
+    o.report_dir = (dir / "r").string();
+    o.random_cases = 0;
+    o.quiet = true;
+    const study::RobustnessResult r = study::run_robustness_study(o);
+    const std::string md = study::write_robustness_report(r, o.report_dir);
+    std::ifstream csv(dir / "r" / "robustness.csv");
+    std::string header, line;
+    ASSERT_TRUE(std::getline(csv, header));
+    auto column = [&](const std::string &name) {
+        std::istringstream h(header);
+        int i = 0;
+        for (std::string c; std::getline(h, c, ','); i++)
+            if (c == name)
+                return i;
+        return -1;
+    };
+    const int ratio = column("speed_ratio"), comp = column("compensated_worst_whole_area_contrast_db"),
+              contrast = column("worst_whole_area_contrast_db");
+    ASSERT_GE(ratio, 0);
+    ASSERT_GE(comp, 0);
+    std::vector<std::vector<std::string>> rows;
+    while (std::getline(csv, line)) {
+        std::vector<std::string> cells;
+        std::istringstream l(line);
+        for (std::string c; std::getline(l, c, ',');)
+            cells.push_back(c);
+        rows.push_back(cells);
+    }
+    // nominal, E -+3 %, d -+5 %, acrylic's loss range (2), loss x1.5
+    ASSERT_EQ(rows.size(), 8u);
+    const double nominal = std::stod(rows[0][std::size_t(contrast)]);
+    int compensated = 0;
+    for (const auto &row : rows) {
+        const double alpha = std::stod(row[std::size_t(ratio)]);
+        if (alpha == 1.0) {
+            EXPECT_TRUE(row[std::size_t(comp)].empty()) << row[0];
+            continue;
+        }
+        compensated++;
+        EXPECT_NEAR(std::stod(row[std::size_t(comp)]), nominal, 0.02) << row[0];
+        EXPECT_GT(std::abs(std::stod(row[std::size_t(contrast)]) - nominal), 0.05) << row[0];  // not vacuous
+    }
+    EXPECT_EQ(compensated, 4);
+    EXPECT_NE(md.find("worst over the box, speed compensated"), std::string::npos);
+    EXPECT_NE(md.find("E -3 %, compensated x0.9849"), std::string::npos);
+    std::filesystem::remove_all(dir);
+}
+
+TEST(Robustness, ATableStatesItsPanelOnlyWhenItsDEdTIsKnown)
+{
+    // A library material: its dE/E/dT and the calibration temperature; a
+    // custom material has none, so no panel section (a device must not take
+    // 0 for it), unless the scene states E_per_k.
+    const std::string acrylic = "material = \"acrylic\"";
+    const std::string custom = std::string(base_scene).replace(
+        base_scene.find(acrylic), acrylic.size(),
+        "material = { name = \"pc\", density_kg_m3 = 1200, youngs_pa = 2.4e9, poisson = 0.37 }");
+    const std::string path = (std::filesystem::temp_directory_path() / "robust-panel.htab").string();
+    auto panel_of = [&](const std::string &text, haptic_panel *p) {
+        const pipeline::CalibrationInput in = input(text);
+        pipeline::write_table(path, in, pipeline::calibrate(in));
+        haptic_table t{};
+        haptic_table_error err{};
+        EXPECT_EQ(haptic_table_open(path.c_str(), &t, &err), 0) << err.message;
+        const int rc = haptic_table_panel(&t, p);
+        haptic_table_close(&t);
+        std::filesystem::remove(path);
+        return rc;
+    };
+    haptic_panel p{};
+    ASSERT_EQ(panel_of(std::string(base_scene).replace(base_scene.find("thickness_m = 0.002"), 19,
+                                                       "thickness_m = 0.002\ntemperature_c = 31"),
+                       &p),
+              0);
+    EXPECT_EQ(p.temperature_c, 31.0);
+    EXPECT_EQ(p.youngs_per_k, -4e-3);  // acrylic's, from the material library
+    EXPECT_EQ(panel_of(custom, &p), -1);
+    ASSERT_EQ(panel_of(custom + "\n[tolerance]\nE_per_k = 0\n", &p), 0);
+    EXPECT_EQ(p.youngs_per_k, 0.0);
+    EXPECT_EQ(p.temperature_c, 23.0);
 }

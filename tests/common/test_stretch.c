@@ -138,18 +138,32 @@ static void full_scale_saturates_and_is_counted(void **state)
 {
     (void)state;
     /* A full-scale square wave overshoots when band-limited (Gibbs): the
-     * overshoot saturates and every saturated sample is counted. */
-    const uint32_t frames = 960;
-    int16_t in[960], out[1000];
-    for (uint32_t i = 0; i < frames; i++)
-        in[i] = (i / 48) % 2 ? -32768 : 32767;
-    uint64_t clipped = 0;
-    assert_int_equal(haptic_stretch(in, frames, 1, 0.99, out, &clipped), 0);
-    uint64_t at_rail = 0;
-    for (uint32_t i = 0; i < haptic_stretch_frames(frames, 0.99); i++)
-        at_rail += out[i] == 32767 || out[i] == -32768;
-    assert_true(clipped > 0);
-    assert_true(at_rail >= clipped);
+     * overshoot saturates and is counted. The same wave at a quarter of full
+     * scale is the truth by linearity: where four times its stretch stays
+     * inside the rails, the full-scale stretch equals it (to the rounding of
+     * both), and it saturates exactly where four times it leaves them. */
+    const uint32_t frames = 960, n = haptic_stretch_frames(960, 0.99);
+    int16_t full[960], quarter[960], out[1000], ref[1000];
+    for (uint32_t i = 0; i < frames; i++) {
+        full[i] = (i / 48) % 2 ? -32764 : 32764;
+        quarter[i] = (int16_t)(full[i] / 4);
+    }
+    uint64_t clipped = 0, none = 0;
+    assert_int_equal(haptic_stretch(full, frames, 1, 0.99, out, &clipped), 0);
+    assert_int_equal(haptic_stretch(quarter, frames, 1, 0.99, ref, &none), 0);
+    assert_int_equal(none, 0);
+    uint64_t beyond = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        const long x4 = 4L * ref[i];
+        if (x4 > 32767 + 4 || x4 < -32768 - 4) { /* clearly beyond a rail */
+            beyond++;
+            assert_true(out[i] == 32767 || out[i] == -32768);
+        } else if (x4 < 32767 - 4 && x4 > -32768 + 4) {
+            assert_true(labs(out[i] - x4) <= 4);
+        }
+    }
+    assert_true(beyond > 0);
+    assert_true(clipped >= beyond && clipped <= beyond + 8); /* the few within 4 counts of a rail either way */
 }
 
 int main(void)

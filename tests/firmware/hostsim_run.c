@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -21,7 +22,20 @@ char hs_dir[256];
 
 void hs_path(char *out, size_t cap, const char *name)
 {
-    snprintf(out, cap, "%s/%s", hs_dir, name);
+    int n = snprintf(out, cap, "%s/%s", hs_dir, name);
+    assert_true(n > 0 && (size_t)n < cap);
+}
+
+void hs_files(struct hs_files *f, const char *stem)
+{
+    char name[64];
+    const char *suffix[] = {".htab", "-triggers", ".wav", ".ini", "-stderr.txt", "-report.txt", "-script.txt"};
+    char *out[] = {f->table, f->fifo, f->wav, f->board, f->err, f->report, f->script};
+    for (int i = 0; i < 7; i++) {
+        snprintf(name, sizeof name, "%s%s", stem, suffix[i]);
+        hs_path(out[i], 300, name);
+    }
+    snprintf(f->device, sizeof f->device, "hostsim:FILE=\"%s\"", f->wav);
 }
 
 pid_t hs_spawn(char *const argv[], const char *stderr_path)
@@ -32,6 +46,21 @@ pid_t hs_spawn(char *const argv[], const char *stderr_path)
     pid_t pid;
     assert_int_equal(posix_spawn(&pid, HAPTICD_EXE, &fa, NULL, argv, environ), 0);
     posix_spawn_file_actions_destroy(&fa);
+    return pid;
+}
+
+pid_t hs_start_live(const struct hs_files *f, int report, int *fd)
+{
+    unlink(f->fifo);
+    assert_int_equal(mkfifo(f->fifo, 0600), 0);
+    char *argv[] = {"hapticd", "--board", (char *)f->board, "--table", (char *)f->table, "--triggers",
+                    (char *)f->fifo, "--alsa-device", (char *)f->device, "--latency-report", (char *)f->report, NULL};
+    if (!report)
+        argv[9] = NULL;
+    pid_t pid = hs_spawn(argv, f->err);
+    *fd = open(f->fifo, O_WRONLY); /* blocks until hapticd has it open */
+    assert_true(*fd >= 0);
+    hs_wait_for(f->err, "running");
     return pid;
 }
 

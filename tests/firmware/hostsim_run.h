@@ -17,8 +17,19 @@ int hs_setup(void **state);
 int hs_teardown(void **state);
 /* hs_dir/name */
 void hs_path(char *out, size_t cap, const char *name);
+/* The files of one hapticd run in hs_dir: STEM.htab, STEM-triggers (a
+ * FIFO's path), STEM.wav, STEM.ini, STEM-stderr.txt, STEM-report.txt,
+ * STEM-script.txt, and the host-sim PCM that writes STEM.wav. */
+struct hs_files {
+    char table[300], fifo[300], wav[300], board[300], err[300], report[300], script[300], device[400];
+};
+void hs_files(struct hs_files *f, const char *stem);
 /* hapticd with argv, its stderr into stderr_path. */
 pid_t hs_spawn(char *const argv[], const char *stderr_path);
+/* hapticd live on f's board and table with triggers from f's FIFO (made
+ * anew) and the host-sim device, with f's latency report when `report`;
+ * returns once it runs, the FIFO open for writing in *fd. */
+pid_t hs_start_live(const struct hs_files *f, int report, int *fd);
 int hs_wait_exit(pid_t pid);
 /* A live run must end with status 0; otherwise fails with what hapticd said. */
 void hs_assert_clean_exit(pid_t pid, const char *stderr_path);

@@ -56,28 +56,24 @@ static void scripted(const char *format, const char *map_text, const unsigned *m
 {
     struct fw_table t;
     fw_table_make(&t, C, 3, N, FW_RANDOM, 6000, 77);
-    char table[300], script[300], wav[300], board[300], err[300], device[400];
-    hs_path(table, sizeof table, "plate.htab");
-    hs_path(script, sizeof script, "script.txt");
-    hs_path(wav, sizeof wav, "device.wav");
-    hs_path(board, sizeof board, "board.ini");
-    hs_path(err, sizeof err, "stderr.txt");
-    fw_table_write(&t, table);
-    hs_write_board(board, format, map_text);
-    FILE *f = fopen(script, "w");
+    struct hs_files f;
+    hs_files(&f, "plate");
+    fw_table_write(&t, f.table);
+    hs_write_board(f.board, format, map_text);
+    FILE *sf = fopen(f.script, "w");
     /* Frame stamps: 0 (before the pre-fill ends: starts at 128), 4800 (a
      * boundary: starts there), 4810 (starts at the next boundary, 4864, on
      * top of the voice still playing). */
-    fprintf(f, "# test\nat 0 focus %u\nat 4800 foci %u,%u\nat 4810 focus %u\n", t.ids[0], t.ids[1], t.ids[2],
+    fprintf(sf, "# test\nat 0 focus %u\nat 4800 foci %u,%u\nat 4810 focus %u\n", t.ids[0], t.ids[1], t.ids[2],
             t.ids[0]);
-    fclose(f);
-    snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
-    char *argv[] = {"hapticd", "--board", board, "--table", table, "--script", script, "--alsa-device", device, NULL};
-    pid_t pid = hs_spawn(argv, err);
+    fclose(sf);
+    char *argv[] = {"hapticd", "--board", f.board, "--table", f.table, "--script", f.script,
+                    "--alsa-device", f.device, NULL};
+    pid_t pid = hs_spawn(argv, f.err);
     assert_int_equal(hs_wait_exit(pid), 0);
 
     sf_count_t frames;
-    int32_t *got = hs_read_wav(wav, &frames, sf_format);
+    int32_t *got = hs_read_wav(f.wav, &frames, sf_format);
     const uint32_t starts[3] = {PREFILL, 4800, 4864};
     const uint32_t sets[3][2] = {{0, 0}, {1, 2}, {0, 0}};
     const uint32_t counts[3] = {1, 2, 1};
@@ -148,45 +144,35 @@ static void sighup_keeps_old_table_on_corruption(void **state)
     struct fw_table old_t, new_t;
     fw_table_make(&old_t, C, 2, N, FW_RANDOM, 5000, 1);
     fw_table_make(&new_t, C, 2, N, FW_RANDOM, 5000, 2); /* same ids, other signals */
-    char table[300], fifo[300], wav[300], board[300], err[300], device[400];
-    hs_path(table, sizeof table, "live.htab");
-    hs_path(fifo, sizeof fifo, "triggers");
-    hs_path(wav, sizeof wav, "live.wav");
-    hs_path(board, sizeof board, "live.ini");
-    hs_path(err, sizeof err, "live-stderr.txt");
-    fw_table_write(&old_t, table);
-    hs_write_board(board, "S32_LE", "0,1,2,3,4,5,6,7");
-    unlink(fifo);
-    assert_int_equal(mkfifo(fifo, 0600), 0);
-    snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
-    char *argv[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device, NULL};
-    pid_t pid = hs_spawn(argv, err);
-    int fd = open(fifo, O_WRONLY); /* blocks until hapticd has it open */
-    assert_true(fd >= 0);
-    hs_wait_for(err, "running");
+    struct hs_files f;
+    hs_files(&f, "live");
+    fw_table_write(&old_t, f.table);
+    hs_write_board(f.board, "S32_LE", "0,1,2,3,4,5,6,7");
+    int fd;
+    pid_t pid = hs_start_live(&f, 0, &fd);
     hs_send_focus(fd, old_t.ids[0]);
     hs_sleep_ms(100);
     /* A corrupt table (one payload byte flipped, CRC now wrong) on disk + SIGHUP. */
     old_t.buf[old_t.size - 100] ^= 0x5a;
-    fw_table_write(&old_t, table);
+    fw_table_write(&old_t, f.table);
     old_t.buf[old_t.size - 100] ^= 0x5a;
     kill(pid, SIGHUP);
-    hs_wait_for(err, "reload refused");
+    hs_wait_for(f.err, "reload refused");
     hs_send_focus(fd, old_t.ids[1]);
     hs_sleep_ms(100);
     /* A good new table is taken. */
-    fw_table_write(&new_t, table);
+    fw_table_write(&new_t, f.table);
     kill(pid, SIGHUP);
-    hs_wait_for(err, "reloaded");
+    hs_wait_for(f.err, "reloaded");
     hs_send_focus(fd, new_t.ids[0]);
     hs_sleep_ms(100);
     kill(pid, SIGTERM);
-    hs_assert_clean_exit(pid, err);
+    hs_assert_clean_exit(pid, f.err);
     close(fd);
-    assert_true(hs_file_contains(err, "stopping (drain)"));
+    assert_true(hs_file_contains(f.err, "stopping (drain)"));
 
     sf_count_t frames;
-    int32_t *w = hs_read_wav(wav, &frames, SF_FORMAT_PCM_32);
+    int32_t *w = hs_read_wav(f.wav, &frames, SF_FORMAT_PCM_32);
     sf_count_t a = hs_onset(w, frames, 0);
     assert_true(a >= 0); /* live: at once (a rewind may reach back into the pre-fill) */
     assert_plays(w, a, &old_t, 0);
@@ -214,24 +200,12 @@ static void live_triggers(int rewind)
 {
     struct fw_table t;
     fw_table_make(&t, C, 2, N, FW_RANDOM, 5000, 9);
-    char table[300], fifo[300], wav[300], board[300], err[300], device[400], report[300];
-    hs_path(table, sizeof table, "rw.htab");
-    hs_path(fifo, sizeof fifo, "rw-triggers");
-    hs_path(wav, sizeof wav, "rw.wav");
-    hs_path(board, sizeof board, "rw.ini");
-    hs_path(err, sizeof err, "rw-stderr.txt");
-    hs_path(report, sizeof report, "rw-report.txt");
-    fw_table_write(&t, table);
-    hs_write_board_extra(board, "S32_LE", "0,1,2,3,4,5,6,7", rewind ? "rewind = true\n" : "rewind = false\n");
-    unlink(fifo);
-    assert_int_equal(mkfifo(fifo, 0600), 0);
-    snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
-    char *argv[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device,
-                    "--latency-report", report, NULL};
-    pid_t pid = hs_spawn(argv, err);
-    int fd = open(fifo, O_WRONLY);
-    assert_true(fd >= 0);
-    hs_wait_for(err, "running");
+    struct hs_files f;
+    hs_files(&f, "rw");
+    fw_table_write(&t, f.table);
+    hs_write_board_extra(f.board, "S32_LE", "0,1,2,3,4,5,6,7", rewind ? "rewind = true\n" : "rewind = false\n");
+    int fd;
+    pid_t pid = hs_start_live(&f, 1, &fd);
     hs_sleep_ms(20);
     const sf_count_t triggers = 6;
     for (int i = 0; i < triggers; i++) {
@@ -242,23 +216,23 @@ static void live_triggers(int rewind)
         hs_sleep_ms(i % 2 ? 60 : 10);
     }
     kill(pid, SIGTERM);
-    hs_assert_clean_exit(pid, err);
+    hs_assert_clean_exit(pid, f.err);
     close(fd);
-    assert_true(hs_file_contains(err, rewind ? "triggers start at once" : "rewind = false"));
-    assert_int_equal(hs_report_value(report, "triggers"), triggers);
+    assert_true(hs_file_contains(f.err, rewind ? "triggers start at once" : "rewind = false"));
+    assert_int_equal(hs_report_value(f.report, "triggers"), triggers);
     /* The fixed part of touch -> focal peak: 32 of 48000 frames kept ahead of a
      * rewound voice, else the 128-frame buffer; the table has no lead time. */
-    assert_true(hs_file_contains(report, rewind ? "queue_ahead_ms 0.667\n" : "queue_ahead_ms 2.667\n"));
-    assert_true(hs_file_contains(report, "lead_time_ms unknown\n"));
-    assert_true(hs_file_contains(err, rewind ? "queue 0.667 ms (rewind margin)" : "queue 2.667 ms (no rewinding"));
-    long rewinds = hs_report_value(report, "rewinds");
+    assert_true(hs_file_contains(f.report, rewind ? "queue_ahead_ms 0.667\n" : "queue_ahead_ms 2.667\n"));
+    assert_true(hs_file_contains(f.report, "lead_time_ms unknown\n"));
+    assert_true(hs_file_contains(f.err, rewind ? "queue 0.667 ms (rewind margin)" : "queue 2.667 ms (no rewinding"));
+    long rewinds = hs_report_value(f.report, "rewinds");
     if (rewind)
         assert_true(rewinds >= 1 && rewinds <= triggers); /* a late audio thread may leave none to rewind */
     else
         assert_int_equal(rewinds, 0);
 
     sf_count_t frames;
-    int32_t *w = hs_read_wav(wav, &frames, SF_FORMAT_PCM_32);
+    int32_t *w = hs_read_wav(f.wav, &frames, SF_FORMAT_PCM_32);
     int32_t *rest = malloc((size_t)frames * C * sizeof *rest);
     memcpy(rest, w, (size_t)frames * C * sizeof *rest);
     sf_count_t from = 0;
@@ -311,24 +285,12 @@ static void live_signals_race_the_audio_thread(void **state)
     (void)state;
     struct fw_table t;
     fw_table_make(&t, C, 2, N, FW_RANDOM, 5000, 13);
-    char table[300], fifo[300], wav[300], board[300], err[300], device[400], report[300];
-    hs_path(table, sizeof table, "race.htab");
-    hs_path(fifo, sizeof fifo, "race-triggers");
-    hs_path(wav, sizeof wav, "race.wav");
-    hs_path(board, sizeof board, "race.ini");
-    hs_path(err, sizeof err, "race-stderr.txt");
-    hs_path(report, sizeof report, "race-report.txt");
-    fw_table_write(&t, table);
-    hs_write_board(board, "S32_LE", "0,1,2,3,4,5,6,7");
-    unlink(fifo);
-    assert_int_equal(mkfifo(fifo, 0600), 0);
-    snprintf(device, sizeof device, "hostsim:FILE=\"%s\"", wav);
-    char *argv[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device,
-                    "--latency-report", report, NULL};
-    pid_t pid = hs_spawn(argv, err);
-    int fd = open(fifo, O_WRONLY);
-    assert_true(fd >= 0);
-    hs_wait_for(err, "running");
+    struct hs_files f;
+    hs_files(&f, "race");
+    fw_table_write(&t, f.table);
+    hs_write_board(f.board, "S32_LE", "0,1,2,3,4,5,6,7");
+    int fd;
+    pid_t pid = hs_start_live(&f, 1, &fd);
     const int triggers = 40;
     for (int i = 0; i < triggers; i++) {
         hs_send_focus(fd, t.ids[i % 2]);
@@ -338,17 +300,17 @@ static void live_signals_race_the_audio_thread(void **state)
         hs_sleep_ms(i == triggers - 2 ? 40 : i == triggers - 1 ? 5 : 3);
     }
     kill(pid, SIGTERM); /* the last voice (20.8 ms) started about 5 ms ago: it is still playing */
-    hs_assert_clean_exit(pid, err);
+    hs_assert_clean_exit(pid, f.err);
     close(fd);
-    assert_false(hs_file_contains(err, "ThreadSanitizer"));
-    assert_true(hs_file_contains(err, "stopping (drain)"));
-    assert_true(hs_file_contains(err, "reloaded"));
-    assert_int_equal(hs_report_value(report, "triggers"), triggers);
+    assert_false(hs_file_contains(f.err, "ThreadSanitizer"));
+    assert_true(hs_file_contains(f.err, "stopping (drain)"));
+    assert_true(hs_file_contains(f.err, "reloaded"));
+    assert_int_equal(hs_report_value(f.report, "triggers"), triggers);
 
     /* Drained: the last frames of the WAV are the end of the last voice,
      * which started after every other one; find it from the end. */
     sf_count_t frames;
-    int32_t *w = hs_read_wav(wav, &frames, SF_FORMAT_PCM_32);
+    int32_t *w = hs_read_wav(f.wav, &frames, SF_FORMAT_PCM_32);
     sf_count_t last = -1;
     for (sf_count_t n = frames - 1; n >= 0 && last < 0; n--)
         for (uint32_t c = 0; c < C; c++)
@@ -360,11 +322,11 @@ static void live_signals_race_the_audio_thread(void **state)
     /* The last non-zero frame closes a voice: it is the table's last
      * non-zero frame of one focus, N - 1 frames after that voice's start
      * (the voices before it ended earlier, the table never ends in zeros). */
-    uint32_t f = (uint32_t)(triggers - 1) % 2;
+    uint32_t focus = (uint32_t)(triggers - 1) % 2;
     for (uint32_t c = 0; c < C; c++)
-        if (w[last * C + c] != fw_sample(&t, f, N - 1, c) * 65536)
+        if (w[last * C + c] != fw_sample(&t, focus, N - 1, c) * 65536)
             fail_msg("last non-zero frame %ld of %ld, channel %u: %d, the last voice ends with %d", (long)last,
-                     (long)frames, c, w[last * C + c] / 65536, fw_sample(&t, f, N - 1, c));
+                     (long)frames, c, w[last * C + c] / 65536, fw_sample(&t, focus, N - 1, c));
     free(w);
     fw_table_free(&t);
 }
@@ -372,35 +334,33 @@ static void live_signals_race_the_audio_thread(void **state)
 static void bad_inputs_fail_cleanly(void **state)
 {
     (void)state;
-    char err[300], script[300], table[300];
-    hs_path(err, sizeof err, "bad-stderr.txt");
-    hs_path(script, sizeof script, "bad-script.txt");
-    hs_path(table, sizeof table, "bad.htab");
+    struct hs_files f;
+    hs_files(&f, "bad");
     /* Bad script line: one-line error naming the file and the line. */
-    FILE *f = fopen(script, "w");
-    fprintf(f, "at 0 focus 1\nat 10 wiggle 3\n");
-    fclose(f);
+    FILE *sf = fopen(f.script, "w");
+    fprintf(sf, "at 0 focus 1\nat 10 wiggle 3\n");
+    fclose(sf);
     struct fw_table t;
     fw_table_make(&t, C, 1, 64, FW_RANDOM, 100, 3);
-    fw_table_write(&t, table);
-    char *argv1[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", table, "--script", script,
+    fw_table_write(&t, f.table);
+    char *argv1[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", f.table, "--script", f.script,
                      "--alsa-device", "null", NULL};
-    assert_int_equal(hs_wait_exit(hs_spawn(argv1, err)), 1);
+    assert_int_equal(hs_wait_exit(hs_spawn(argv1, f.err)), 1);
     char want[400];
-    snprintf(want, sizeof want, "%s:2: unknown command 'wiggle'", script);
-    assert_true(hs_file_contains(err, want));
+    snprintf(want, sizeof want, "%s:2: unknown command 'wiggle'", f.script);
+    assert_true(hs_file_contains(f.err, want));
     /* A corrupt table at start: refused, named. */
     t.buf[t.size - 10] ^= 1;
-    fw_table_write(&t, table);
-    char *argv2[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", table, "--script", script, NULL};
-    assert_int_equal(hs_wait_exit(hs_spawn(argv2, err)), 1);
-    assert_true(hs_file_contains(err, "crc32"));
-    assert_true(hs_file_contains(err, table));
-    char *argv3[] = {"hapticd", "--check", table, NULL};
-    assert_int_equal(hs_wait_exit(hs_spawn(argv3, err)), 1);
+    fw_table_write(&t, f.table);
+    char *argv2[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", f.table, "--script", f.script, NULL};
+    assert_int_equal(hs_wait_exit(hs_spawn(argv2, f.err)), 1);
+    assert_true(hs_file_contains(f.err, "crc32"));
+    assert_true(hs_file_contains(f.err, f.table));
+    char *argv3[] = {"hapticd", "--check", f.table, NULL};
+    assert_int_equal(hs_wait_exit(hs_spawn(argv3, f.err)), 1);
     t.buf[t.size - 10] ^= 1;
-    fw_table_write(&t, table);
-    assert_int_equal(hs_wait_exit(hs_spawn(argv3, err)), 0);
+    fw_table_write(&t, f.table);
+    assert_int_equal(hs_wait_exit(hs_spawn(argv3, f.err)), 0);
     fw_table_free(&t);
 }
 

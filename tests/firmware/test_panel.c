@@ -85,8 +85,13 @@ static void the_speed_ratio_is_the_boards_times_the_temperatures(void **state)
     /* No sensor: the board's ratio, with or without a panel section. */
     assert_int_equal(hd_panel_speed_ratio(&pb, &t.table, NAN, &r, err), 0);
     assert_true(r == 1.01);
-    /* A temperature needs the table's panel section. */
+    /* A temperature, or a board with a sensor even before it has read one,
+     * needs the table's panel section. */
     assert_int_equal(hd_panel_speed_ratio(&pb, &t.table, 30.0, &r, err), -EINVAL);
+    assert_non_null(strstr(err, "no panel section"));
+    struct hd_panel_board sensor = pb;
+    strcpy(sensor.temperature_input, "/sys/class/hwmon/hwmon0/temp1_input");
+    assert_int_equal(hd_panel_speed_ratio(&sensor, &t.table, NAN, &r, err), -EINVAL);
     assert_non_null(strstr(err, "no panel section"));
     const haptic_panel panel = {.temperature_c = 23.0, .youngs_per_k = -0.004};
     t.panel = &panel;
@@ -173,7 +178,23 @@ static void a_stretched_program_plays_the_stretched_drives_with_their_energies(v
     assert_int_equal(hd_program_from_table(&t.table, &b, &p, err), 0);
     assert_int_equal(hd_program_set_speed(p, 1.3, err), -EINVAL);
     assert_non_null(strstr(err, "outside 0.8..1.25"));
+    /* Refused, it plays the table as stored. */
+    assert_null(p->stretched);
+    assert_int_equal(p->samples, N);
+    assert_ptr_equal(hd_program_signal(p, 2), haptic_table_signal(&t.table, 2));
+    assert_true(hd_program_gram(p, 0, 1) == haptic_table_gram(&t.table, 0, 1));
     hd_program_free(p);
+    /* A clone is the same table in its own bytes, not stretched. */
+    assert_int_equal(hd_program_from_table(&t.table, &b, &p, err), 0);
+    assert_int_equal(hd_program_set_speed(p, 0.97, err), 0);
+    struct hd_program *q;
+    assert_int_equal(hd_program_clone(p, &b, &q, err), 0);
+    hd_program_free(p);
+    assert_null(q->stretched);
+    assert_true(q->table.data != t.table.data);
+    assert_memory_equal(hd_program_signal(q, 1), haptic_table_signal(&t.table, 1), sizeof(int16_t) * N * C);
+    assert_int_equal(hd_program_find(q, t.ids[2]), 2);
+    hd_program_free(q);
     fw_table_free(&t);
 }
 
