@@ -33,7 +33,7 @@ void hs_files(struct hs_files *f, const char *stem)
     char *out[] = {f->table, f->fifo, f->wav, f->board, f->err, f->report, f->script};
     for (int i = 0; i < 7; i++) {
         snprintf(name, sizeof name, "%s%s", stem, suffix[i]);
-        hs_path(out[i], 300, name);
+        hs_path(out[i], sizeof f->table, name); /* every path field has its size */
     }
     snprintf(f->device, sizeof f->device, "hostsim:FILE=\"%s\"", f->wav);
 }
