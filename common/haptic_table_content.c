@@ -356,8 +356,8 @@ int haptic_table_check_content_(const uint8_t *b, const haptic_table *t, haptic_
 {
     int rc;
     if ((rc = check_reserved(b, t, err)) || (rc = check_channels(b, t, err)) || (rc = check_foci(b, t, err)) ||
-        (rc = check_playback(b, t, err)) || (rc = check_panel(b, t, err)) || (rc = check_gram(b, t, err)) || (rc = check_provenance(b, t, err)) ||
-        (rc = check_payload(b, t, err)))
+        (rc = check_playback(b, t, err)) || (rc = check_panel(b, t, err)) || (rc = check_gram(b, t, err)) ||
+        (rc = check_provenance(b, t, err)) || (rc = check_payload(b, t, err)))
         return rc;
     return 0;
 }

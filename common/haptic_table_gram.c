@@ -1,6 +1,7 @@
 /* haptic_table_gram.c - the exact inner product behind the Gram matrix, for
  * the writer (which computes it), the reader (which checks it against the
- * payload) and the Gram matrix of derived drives (haptic_table_gram_of). Its own unit so the build can give this one loop the vectoriser
+ * payload) and the Gram matrix of derived drives (haptic_table_gram_of).
+ * Its own unit so the build can give this one loop the vectoriser
  * (common/CMakeLists.txt); the arithmetic is integer, so the result does not
  * depend on how the compiler orders the sum. */
 #include "haptic_table_internal.h"
