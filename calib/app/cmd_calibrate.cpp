@@ -183,16 +183,19 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
         return;
     }
     // Up to a dozen foci, one line each; a dense grid as worst / median / best.
+    // Either way the verdict (calibrate.h FocusMetrics::passes) comes last,
+    // and every focus that fails says why and where its ghost is.
+    const double thr = in.calibration.threshold_m;
+    const pipeline::VerdictSummary verdict = pipeline::summarize_verdict(v.foci);
     const bool per_focus = v.foci.size() <= 12;
     if (per_focus) {
         std::fprintf(stderr, "%-6s %9s %9s %10s %11s %9s %9s %9s %8s %s\n", "focus", "x_mm", "y_mm", "peak_um",
-                     "others_um", "contr_dB", "area_dB", "spot_mm", "lead_ms", "threshold");
+                     "others_um", "contr_dB", "area_dB", "spot_mm", "lead_ms", "verdict");
         for (const pipeline::FocusMetrics &m : v.foci)
             std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %11.2f %9.1f %9s %9.1f %8.1f %s\n", m.id, m.at.x_m * 1e3,
                          m.at.y_m * 1e3, m.peak_m * 1e6, m.max_other_foci_m * 1e6, m.other_foci_contrast_db,
                          m.whole_area ? fmt("%.1f", m.whole_area_contrast_db).c_str() : "-", m.spot_diameter_m * 1e3,
-                         m.lead_time_s * 1e3,
-                         !m.crosses_threshold ? "peak below" : !m.others_below_threshold ? "others cross" : "ok");
+                         m.lead_time_s * 1e3, m.passes() ? "pass" : ("FAIL: " + m.failure(thr)).c_str());
     } else {
         auto stat = [&](const char *name, const char *unit, double scale, auto get) {
             std::vector<double> x;
@@ -208,34 +211,31 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
         stat("spot diameter", "mm", 1e3, [](const pipeline::FocusMetrics &m) { return m.spot_diameter_m; });
         stat("lead time", "ms", 1e3, [](const pipeline::FocusMetrics &m) { return m.lead_time_s; });
         stat("perceived offset", "mm", 1e3, [](const pipeline::FocusMetrics &m) { return m.perceived_offset_distance_m; });
-        size_t below = 0, others = 0, whole = 0;
-        for (const pipeline::FocusMetrics &m : v.foci) {
-            below += !m.crosses_threshold;
-            others += !m.others_below_threshold;
-            whole += m.whole_area && !m.whole_area_below_threshold;
-        }
-        std::fprintf(stderr, "peak below threshold at %zu foci; other foci cross at %zu; the area beyond lambda/2 crosses at %zu\n",
-                     below, others, whole);
-        const auto worst = std::min_element(v.foci.begin(), v.foci.end(), [](const auto &a, const auto &b) {
-            return a.whole_area_contrast_db < b.whole_area_contrast_db;
+        // The failing foci, worst first, up to a dozen lines.
+        std::vector<const pipeline::FocusMetrics *> failing;
+        for (const pipeline::FocusMetrics &m : v.foci)
+            if (!m.passes())
+                failing.push_back(&m);
+        std::sort(failing.begin(), failing.end(), [](const auto *a, const auto *b) {
+            return a->whole_area_contrast_db < b->whole_area_contrast_db;
         });
-        if (worst->whole_area)
-            std::fprintf(stderr, "worst focus %u at (%.1f, %.1f) mm: whole-area contrast %.1f dB, peak %.2f um\n",
-                         worst->id, worst->at.x_m * 1e3, worst->at.y_m * 1e3, worst->whole_area_contrast_db,
-                         worst->peak_m * 1e6);
+        for (std::size_t i = 0; i < failing.size() && i < 12; i++)
+            std::fprintf(stderr, "focus %u at (%.1f, %.1f) mm FAILS: %s\n", failing[i]->id, failing[i]->at.x_m * 1e3,
+                         failing[i]->at.y_m * 1e3, failing[i]->failure(thr).c_str());
+        if (failing.size() > 12)
+            std::fprintf(stderr, "... and %zu more failing foci (metrics.json lists each)\n", failing.size() - 12);
+        const pipeline::FocusMetrics &w = v.foci[verdict.worst];
+        std::fprintf(stderr, "worst focus %u at (%.1f, %.1f) mm: whole-area contrast %.1f dB, peak %.2f um\n", w.id,
+                     w.at.x_m * 1e3, w.at.y_m * 1e3, w.whole_area_contrast_db, w.peak_m * 1e6);
     }
-    std::fprintf(stderr, "(threshold %.1f um, lambda/2 = %.1f mm, exciter force at full scale %.3g N)\n",
-                 in.calibration.threshold_m * 1e6, v.foci.empty() ? 0.0 : v.foci[0].lambda_half_m * 1e3,
-                 in.exciters.force_full_scale_n);
+    std::fprintf(stderr, "(threshold %.1f um, lambda/2 = %.1f mm, exciter force at full scale %.3g N)\n", thr * 1e6,
+                 v.foci.empty() ? 0.0 : v.foci[0].lambda_half_m * 1e3, in.exciters.force_full_scale_n);
+    std::fprintf(stderr, "verdict (%s, all times): %zu of %zu foci pass%s\n",
+                 v.foci.empty() ? "whole area" : v.foci[0].verdict_scope(), verdict.passing, verdict.total,
+                 verdict.all_pass() ? "" : ": the table makes ghosts or misses the threshold (exit status 3)");
 }
 
-bool all_good(const pipeline::Verification &v)
-{
-    for (const pipeline::FocusMetrics &m : v.foci)
-        if (!m.crosses_threshold || !m.others_below_threshold)
-            return false;
-    return true;
-}
+bool all_good(const pipeline::Verification &v) { return pipeline::summarize_verdict(v.foci).all_pass(); }
 
 // `--modes N` is checked with the scene, before the calibration runs: a count
 // the grid allows, and the eigensolver's memory within the machine's.
@@ -305,7 +305,32 @@ int run_calibrate(const CalibrateArgs &a)
         progress.note("stages: placement simulations " + fmt("%.2f s", st.simulation_s) + ", search " +
                       fmt("%.2f s", st.search_s) + ", transfer matrix " + fmt("%.2f s", st.transfer_s) +
                       ", signals " + fmt("%.2f s", st.signals_s) + ", verification " +
-                      fmt("%.2f s", st.verification_s));
+                      fmt("%.2f s", st.verification_s) +
+                      (st.verdict_s > 0 ? ", search by the verdict " + fmt("%.2f s", st.verdict_s) +
+                                              " (the chosen placement's transfer, signals and verification included)"
+                                        : std::string()));
+    }
+    if (!p.judged.empty()) {  // the search by the verdict (pipeline/placement_verdict.h)
+        const auto judged = [&](const pipeline::PlacementReport::Judged &j) {
+            return std::to_string(j.passing) + " of " + std::to_string(in.foci.points.size()) + " foci pass, worst " +
+                   fmt("%.2f dB", j.worst_whole_area_db);
+        };
+        const pipeline::PlacementReport::Judged *regular = nullptr, *chosen = nullptr;
+        for (const pipeline::PlacementReport::Judged &j : p.judged) {
+            if (j.regular)
+                regular = &j;
+            if (j.chosen == p.chosen)
+                chosen = &j;
+        }
+        std::string line = "placement by the verdict: " + std::to_string(p.judged.size()) + " placements judged (" +
+                           std::to_string(p.ghost_probes.size()) + " ghosts added to the model) in " +
+                           fmt("%.2f s", p.verdict_s) + "; chosen: " + (chosen ? judged(*chosen) : "?");
+        if (regular)
+            line += "; regular: " + judged(*regular);
+        progress.note(line);
+        if (p.proxy_pairs > 0)
+            progress.note("placement: the contrast model (foci only) ranked " + std::to_string(p.proxy_agreements) +
+                          " of " + std::to_string(p.proxy_pairs) + " pairs of judged placements as the verdict did");
     }
     if (!p.regular.empty())
         progress.note("placement: predicted worst-case contrast " + std::to_string(p.chosen_contrast_db).substr(0, 5) +
@@ -346,7 +371,9 @@ int run_calibrate(const CalibrateArgs &a)
     progress.note("wrote " + a.table + (a.report.empty() ? "" : " and " + a.report + "/index.html") + " in " +
                   std::to_string(std::chrono::duration<double>(Clock::now() - t0).count()).substr(0, 5) +
                   " s, peak memory " + std::to_string(model::peak_rss_mb()).substr(0, 5) + " MB");
-    return 0;
+    // The table is written either way (to inspect, or to verify on another
+    // plate); a table that fails the verdict says so in its exit status.
+    return all_good(r.verification) ? 0 : 3;
 }
 
 struct VerifyArgs {
@@ -467,7 +494,9 @@ int run_verify(const VerifyArgs &a)
         report::write_metrics_json(a.report, ctx);
         report::write_html_report(a.report, ctx);
     }
-    std::fprintf(stderr, "verify: %s\n", ok ? "every criterion met" : "criteria NOT met (see above)");
+    std::fprintf(stderr, "verify: %s\n",
+                 ok ? (mode == "table" ? "every focus passes the verdict" : "every trigger played its focus")
+                    : "NOT met (see above): exit status 3");
     return ok ? 0 : 3;
 }
 
@@ -476,7 +505,7 @@ int run_verify(const VerifyArgs &a)
 void register_calibrate(CLI::App &app, int &exit_code)
 {
     auto a = std::make_shared<CalibrateArgs>();
-    CLI::App *cmd = app.add_subcommand("calibrate", "Simulate, place exciters, write the time-reversal table, verify");
+    CLI::App *cmd = app.add_subcommand("calibrate", "Simulate, place exciters, write the table, verify; exit 3 when a focus fails the verdict");
     cmd->add_option("scene", a->scene, "Scene file (TOML)")->required();
     cmd->add_option("-o,--output", a->table, "Table to write (.htab); required unless --dry-run");
     cmd->add_flag("--dry-run", a->dry_run, "Print the chosen setting, predicted error, time and memory; run nothing");

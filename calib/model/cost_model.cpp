@@ -1,4 +1,5 @@
 #include "model/cost_model.h"
+#include "pipeline/placement_verdict.h"
 
 #include "model/resources.h"
 #include "pipeline/lead_time.h"
@@ -95,6 +96,18 @@ double reciprocity_recording_bytes(const pipeline::CalibrationPlan &plan)
     return double(plan.sites.size()) * samples * 8 + 2.0 * double(pipeline::site_recording_chunk_frames) * double(plan.nodes) * 4;
 }
 
+namespace {
+
+// pipeline::judged_by_verdict, decided from the scene before anything runs.
+bool searched_by_verdict(const pipeline::CalibrationInput &in)
+{
+    return in.exciters.placement == pipeline::PlacementMode::random &&
+           in.exciters.criterion == pipeline::PlacementCriterion::contrast && in.exciters.verdict_rounds > 0 &&
+           pipeline::transfer_holds(in);
+}
+
+}  // namespace
+
 Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan, const CostModel *cost)
 {
     Prediction p;
@@ -120,11 +133,27 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
         p.traces_mb += K * K * 8 *
                        std::ceil((in.calibration.truncate_fraction * in.calibration.window_s +
                                   in.calibration.verify_tail_s) * plan.search_rate_hz) / mb;
+    // The search by the verdict (pipeline/placement_verdict.h): its probe
+    // rows fill the contrast model up to its budget, each probe's recordings
+    // are kept like an emitter's, and every placement judged keeps an H.
+    double probes = 0, judged = 0;
+    if (searched_by_verdict(in)) {
+        const double len = in.calibration.window_s * plan.search_rate_hz;
+        const double lags = len * (1 + pipeline::kept_fraction(in));
+        const double row_bytes = sites * double(plan.foci) * lags * 4;
+        probes = std::min(double(in.exciters.verdict_rounds * pipeline::ghosts_per_round),
+                          std::max(0.0, pipeline::model_budget_bytes / row_bytes - emitters));
+        judged = 2 + in.exciters.verdict_rounds;
+        p.recordings_mb += (probes * row_bytes + 2 * probes * sites * len * 4) / mb + 2 * plan.transfer_bytes / mb;
+    }
     p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;
     if (!cost)
         return p;
     p.simulate_s = (cost->seconds_per_step_simulate * double(plan.site_steps) + sites * cost->seconds_per_resample) *
-                   std::ceil(emitters / P);
+                   std::ceil((emitters + probes) / P);
+    if (judged > 0)  // at most every exciter of every placement judged is new to the transfer cache
+        p.simulate_s += cost->seconds_per_step_verify * double(plan.transfer_steps) *
+                        std::ceil(judged * in.exciters.count / P);
     // Each verification pass runs every focus for the drive; a pass with
     // snapshots re-runs each focus to its focus instant (at most the kept window).
     const double kept_steps = pipeline::kept_window_s(in) / plan.time_step_s;

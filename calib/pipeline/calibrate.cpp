@@ -4,6 +4,7 @@
 #include "pipeline/calibrate_stages.h"
 #include "pipeline/first_failure.h"
 #include "pipeline/inverse_filter.h"
+#include "pipeline/placement_verdict.h"
 #include "pipeline/lead_time.h"
 #include "pipeline/plan.h"
 #include "pipeline/robust.h"
@@ -28,7 +29,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-double dist(Point a, Point b) { return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m); }
 
 std::string fmt(double v)
 {
@@ -170,10 +170,22 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
 
     // 1-2. Responses of the placement's emitters (the foci of its subset and
     //      any probe points) and the placement search.
-    place_exciters(in, plan, progress, res);
+    PlacementSearch search(in, plan, progress, res);
     res.placement.focus_subset = plan.focus_subset;
     res.placement.subset_cover_m = plan.subset_cover_m;
     res.placement.simulations = plan.emitters.size();
+
+    // 2-5. A searched placement is judged by the verdict of its own drives
+    //      (placement_verdict.h): the transfer matrix, signals and
+    //      verification of the best one judged stay.
+    if (judged_by_verdict(in, search)) {
+        const TransferMatrix H = search_by_verdict(in, search, progress, res);
+        if (in.robust)  // the robust design of the placement the plain design chose
+            signals_and_verification(in, H, progress, res);
+        else
+            finish_stages(in, H, progress, res);
+        return res;
+    }
 
     // 3. The transfer matrix of the placed exciters (the finger is composed in
     //    playback only, so H of the bare plate also serves the finger's scenes).
@@ -189,7 +201,7 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
 }
 
 void signals_and_verification(const CalibrationInput &in, const TransferMatrix &H, const ProgressFn &progress,
-                              CalibrationResult &res)
+                              CalibrationResult &res, bool judge_only)
 {
     // 4. Drive signals from H: time reversal or the inverse filter.
     auto t0 = Clock::now();
@@ -197,13 +209,13 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
     tro.truncate_fraction = in.calibration.truncate_fraction;
     tro.output_rate_hz = in.calibration.output_rate_hz;
     tro.dither = in.calibration.dither;
-    res.signals = in.calibration.method == DriveMethod::inverse_filter ? inverse_filter_signals(in, H)
+    res.signals = in.calibration.method == DriveMethod::inverse_filter ? inverse_filter_signals(in, H, progress)
                                                                       : signals_from_transfer(in, H);
     // A robust design (the same method over the ensemble of plates) replaces
     // them; the plain design stays for the comparison.
     std::vector<DriveSignals> plain;
     std::optional<RobustDesign> robust;
-    if (in.robust) {
+    if (in.robust && !judge_only) {
         robust = robust_design(in, H, progress);
         plain = std::move(res.signals);
         res.signals = robust->signals;
@@ -248,21 +260,32 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
     res.verification = lti ? verify_signals_with(in, H, stored, in.calibration.output_rate_hz, progress)
                            : verify_signals_forward(in, res.exciters, stored, in.calibration.output_rate_hz,
                                                     progress, true);
+    res.times.verification_s = seconds_since(t0);
+    if (!judge_only)
+        finish_stages(in, H, progress, res, std::move(plain), robust ? &*robust : nullptr);
+}
+
+void finish_stages(const CalibrationInput &in, const TransferMatrix &H, const ProgressFn &progress,
+                   CalibrationResult &res, std::vector<DriveSignals> plain, const RobustDesign *robust)
+{
     // What a listener hears of each focus (pipeline/radiation.h): from H's lattice.
-    if (lti && H.lattice.size() > 0) {
+    if (transfer_holds(in) && H.lattice.size() > 0) {
         const auto t1 = Clock::now();
+        std::vector<std::vector<int16_t>> stored;
+        for (const DriveSignals &d : res.signals)
+            stored.push_back(d.samples);
         const std::vector<RadiatedSound> sound = radiated_sounds(in, H, stored, in.calibration.output_rate_hz);
         for (size_t f = 0; f < res.verification.foci.size() && f < sound.size(); f++) {
             res.verification.foci[f].sound_exposure_dba = sound[f].exposure_level_dba;
             res.verification.foci[f].sound = true;
         }
         res.times.sound_s = seconds_since(t1);
+        res.times.verification_s += res.times.sound_s;
     }
-    res.times.verification_s = seconds_since(t0);
 
     // 6. The table over the scene's tolerance box (pipeline/robust.h).
     if (in.tolerance || in.robust)
-        res.tolerance = tolerance_stage(in, H, res, std::move(plain), robust ? &*robust : nullptr, progress);
+        res.tolerance = tolerance_stage(in, H, res, std::move(plain), robust, progress);
 }
 
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H)

@@ -63,6 +63,23 @@ struct PlacementReport {
     std::vector<size_t> focus_subset;
     double subset_cover_m = 0;
     size_t simulations = 0;
+    // The placements judged by the verdict (placement_verdict.h), in the
+    // order judged: the proxy's choice, the regular pattern, each refinement.
+    struct Judged {
+        std::vector<size_t> chosen;      // indices into sites
+        size_t passing = 0;              // foci passing the verdict (of the scene's)
+        size_t passing_at_target = 0;    // ... with the focal peak at the scene's amplitude
+        double worst_whole_area_db = 0;  // least whole-area contrast over the foci
+        double proxy_db = 0;             // the contrast model's worst focus, foci only (the first search's)
+        size_t probes = 0;               // ghost probes the search had seen when it proposed this one
+        bool regular = false;
+    };
+    std::vector<Judged> judged;
+    std::vector<Point> ghost_probes;     // the ghosts added as probe rows, in order
+    size_t probe_simulations = 0;
+    // Pairs of judged placements the proxy (foci only) ranked as the verdict did.
+    size_t proxy_agreements = 0, proxy_pairs = 0;
+    double verdict_s = 0;                // the time the judging took (transfers, signals, verification)
 };
 
 struct FocusMetrics {
@@ -99,7 +116,31 @@ struct FocusMetrics {
     // 20 uPa^2 s); measured with the whole-area figures (H with its lattice).
     double sound_exposure_dba = 0;
     bool sound = false;
+
+    // The verdict, the one rule every output and every optimisation uses: the
+    // focus crosses the threshold and nothing farther than lambda/2 from it
+    // reaches the threshold at any time: not another focus and, where the
+    // whole area was measured (through H), no point of the active area. The
+    // forward path ([effects.finger]) measures the foci only, so its verdict
+    // covers the foci only (verdict_scope() says which).
+    bool passes() const
+    {
+        return crosses_threshold && others_below_threshold && (!whole_area || whole_area_below_threshold);
+    }
+    const char *verdict_scope() const { return whole_area ? "whole area" : "foci only"; }
+    // Why a focus fails, in one line, with where its ghost is and how far it
+    // goes (empty when it passes).
+    std::string failure(double threshold_m) const;
 };
+
+// How many foci pass the verdict, and the worst focus (least whole-area
+// contrast, else least contrast over the other foci).
+struct VerdictSummary {
+    std::size_t passing = 0, total = 0;
+    std::size_t worst = 0;
+    bool all_pass() const { return passing == total; }
+};
+VerdictSummary summarize_verdict(const std::vector<FocusMetrics> &foci);
 
 struct Verification {
     std::vector<FocusMetrics> foci;
@@ -128,6 +169,10 @@ struct Verification {
 struct StageTimes {
     double simulation_s = 0, search_s = 0, transfer_s = 0, signals_s = 0, verification_s = 0;
     double sound_s = 0;  // the radiated sound of every focus (part of verification_s)
+    // The search by the verdict (placement_verdict.h): every placement judged,
+    // the probes and the searches again; the chosen placement's transfer,
+    // signals and verification are in the figures above too.
+    double verdict_s = 0;
 };
 
 // Sizes of the transfer matrix a calibration used.

@@ -9,7 +9,6 @@ namespace calib::pipeline {
 
 namespace {
 
-double dist(Point a, Point b) { return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m); }
 
 }  // namespace
 

@@ -6,6 +6,7 @@
 #include "pipeline/peaks.h"
 #include "pipeline/playback.h"
 #include "pipeline/pulse.h"
+#include "pipeline/real_fft.h"
 
 #include <Eigen/Dense>
 #include <Spectra/MatOp/DenseSymMatProd.h>
@@ -35,16 +36,12 @@ std::size_t next_pow2(std::size_t n)
     return m;
 }
 
-// Largest eigenvalue of a symmetric positive semi-definite matrix (Lanczos).
-double largest_eigenvalue(const Eigen::MatrixXd &G)
+// Largest eigenvalue of a symmetric positive semi-definite operator
+// (Lanczos; Spectra's operator interface: rows(), perform_op).
+template <typename Op>
+double lanczos_largest(Op &op)
 {
-    const Eigen::Index n = G.rows();
-    if (n <= 8) {
-        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(G, Eigen::EigenvaluesOnly);
-        return es.eigenvalues().maxCoeff();
-    }
-    Spectra::DenseSymMatProd<double> op(G);
-    Spectra::SymEigsSolver<Spectra::DenseSymMatProd<double>> eigs(op, 1, std::min<Eigen::Index>(n, 20));
+    Spectra::SymEigsSolver<Op> eigs(op, 1, std::min<Eigen::Index>(op.rows(), 20));
     eigs.init();
     eigs.compute(Spectra::SortRule::LargestAlge, 1000, 1e-8);
     if (eigs.info() != Spectra::CompInfo::Successful)
@@ -52,13 +49,26 @@ double largest_eigenvalue(const Eigen::MatrixXd &G)
     return eigs.eigenvalues()[0];
 }
 
+// ... of a matrix.
+double largest_eigenvalue(const Eigen::MatrixXd &G)
+{
+    if (G.rows() <= 8) {
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(G, Eigen::EigenvaluesOnly);
+        return es.eigenvalues().maxCoeff();
+    }
+    Spectra::DenseSymMatProd<double> op(G);
+    return lanczos_largest(op);
+}
+
+// Channel pairs (c <= d) in order, each with its 2 J - 1 lags: the layout of R below.
+std::size_t lag_count(std::size_t J) { return 2 * J - 1; }
+
 // Cross-correlations summed over plates and points with weights:
-//   R[c][c'][l + J - 1] = sum_m sum_p w_p sum_n h^m_cp[n] h^m_c'p[n + l],  |l| < J,
-// from the cross-spectra of the zero-padded responses (N >= S + J - 1: no
-// wrap-around within the lags kept).
-std::vector<std::vector<std::vector<double>>> summed_correlations(const Plates &plates,
-                                                                  const std::vector<std::size_t> &points,
-                                                                  const std::vector<double> &weights, std::size_t J)
+//   R[k (2J - 1) + l + J - 1] = sum_m sum_p w_p sum_n h^m_cp[n] h^m_c'p[n + l],  |l| < J,
+// k the pair (c, c'), from the cross-spectra of the zero-padded responses
+// (N >= S + J - 1: no wrap-around within the lags kept).
+Eigen::VectorXd summed_correlations(const Plates &plates, const std::vector<std::size_t> &points,
+                                    const std::vector<double> &weights, std::size_t J)
 {
     const TransferMatrix &H0 = *plates.front();
     const std::size_t C = H0.channels, S = H0.samples, N = next_pow2(S + J - 1), P = points.size();
@@ -90,23 +100,422 @@ std::vector<std::vector<std::vector<double>>> summed_correlations(const Plates &
         for (std::size_t b = 0; b < acc.size(); b++)
             total[b] += acc[b];
     }
-    std::vector<std::vector<std::vector<double>>> R(C, std::vector<std::vector<double>>(C));
+    const std::size_t L = lag_count(J);
+    Eigen::VectorXd R(Eigen::Index(pairs * L));
     Eigen::FFT<double> fft;
     std::vector<double> out(N);
     std::vector<Complex> spec(N);
+    for (std::size_t k = 0; k < pairs; k++) {
+        std::copy(total.begin() + long(k * N), total.begin() + long((k + 1) * N), spec.begin());
+        fft.inv(out, spec);
+        for (std::size_t l = 0; l < L; l++) {
+            const long lag = long(l) - long(J - 1);
+            R(Eigen::Index(k * L + l)) = out[std::size_t((lag + long(N)) % long(N))];
+        }
+    }
+    return R;
+}
+
+// The data part of the normal matrix from R (above):
+//   G[(c,j),(d,jj)] = sum_m h_c[m] h_d[m + j - jj].
+Eigen::MatrixXd normal_matrix(const Eigen::VectorXd &R, std::size_t C, std::size_t J)
+{
+    const std::size_t L = lag_count(J), n = C * J;
+    Eigen::MatrixXd G(n, n);
     std::size_t k = 0;
     for (std::size_t c = 0; c < C; c++)
         for (std::size_t d = c; d < C; d++, k++) {
-            std::copy(total.begin() + long(k * N), total.begin() + long((k + 1) * N), spec.begin());
-            fft.inv(out, spec);
-            std::vector<double> &r = R[c][d];
-            r.resize(2 * J - 1);
-            for (std::size_t l = 0; l < 2 * J - 1; l++) {
-                const long lag = long(l) - long(J - 1);
-                r[l] = out[std::size_t((lag + long(N)) % long(N))];
+            const double *r = R.data() + k * L;
+            for (std::size_t j = 0; j < J; j++)
+                for (std::size_t jj = 0; jj < J; jj++) {
+                    const double v = r[j + J - 1 - jj];
+                    G(Eigen::Index(c * J + j), Eigen::Index(d * J + jj)) = v;
+                    G(Eigen::Index(d * J + jj), Eigen::Index(c * J + j)) = v;
+                }
+        }
+    return G;
+}
+
+// Right-hand side: W_f A_f^T d summed over the plates and the foci,
+// b[(c,j)] = W_f sum_m sum_f sum_n h^m_cf[n] d[n + j].
+Eigen::VectorXd focus_rhs(const Plates &plates, const InverseFilterProblem &p, const InverseFilterOptions &o)
+{
+    const TransferMatrix &H = *plates.front();
+    const std::size_t C = H.channels, S = H.samples, J = p.drive_samples;
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(Eigen::Index(C * J));
+    for (const TransferMatrix *Hm : plates)
+        for (std::size_t f : p.foci)
+            for (std::size_t c = 0; c < C; c++) {
+                const float *h = Hm->response(c, f);
+                for (std::size_t j = 0; j < J; j++) {
+                    double acc = 0;
+                    for (std::size_t m = 0; m < S && m + j < p.target.size(); m++)
+                        acc += double(h[m]) * p.target[m + j];
+                    b(Eigen::Index(c * J + j)) += o.focus_weight * acc;
+                }
+            }
+    return b;
+}
+
+// The penalty per unit beta as a function of the lag j - jj (+ J - 1):
+// I + rho P_out, P_out[l] = delta_l - 2 nu sinc(2 nu l), the drive's energy
+// above nu = band_edge / R cycles per sample.
+std::vector<double> penalty_lags(const InverseFilterOptions &o, double rate_hz, std::size_t J)
+{
+    const double nu = o.band_edge_hz > 0 ? std::min(0.5, o.band_edge_hz / rate_hz) : 0.5;
+    const double rho = o.band_edge_hz > 0 ? o.out_of_band_weight : 0.0;
+    std::vector<double> pen(lag_count(J));
+    for (std::size_t i = 0; i < pen.size(); i++) {
+        const double l = double(i) - double(J - 1);
+        const double x2 = 2 * nu * l;
+        const double sinc = l == 0 ? 1.0 : std::sin(std::numbers::pi * x2) / (std::numbers::pi * x2);
+        pen[i] = (l == 0 ? 1.0 : 0.0) + rho * ((l == 0 ? 1.0 : 0.0) - 2 * nu * sinc);
+    }
+    return pen;
+}
+
+// The normal matrix as its lags, G[(c,j),(d,jj)] = a_cd[j - jj], |j - jj| < J,
+// applied by FFT (the C^2 lag sequences' spectra, 2 C transforms a product;
+// `fft` of at least 3 J - 2 points, so the linear convolution fits): what the
+// Lanczos iteration and the residuals need without forming G.
+class ToeplitzOperator {
+public:
+    using Scalar = double;  // for Spectra
+    // R as summed_correlations gives it: the data part.
+    ToeplitzOperator(const Eigen::VectorXd &R, std::size_t C, std::size_t J, RealFft &fft);
+    // Adds beta times the penalty's lags (penalty_lags) to every channel's own.
+    void regularise(double beta, const std::vector<double> &pen);
+
+    Eigen::Index rows() const { return Eigen::Index(C_ * J_); }
+    Eigen::Index cols() const { return rows(); }
+    void perform_op(const double *x, double *y) const;  // y = G x
+    // a_cd[k], |k| < J.
+    double lag(std::size_t c, std::size_t d, long k) const { return a_(Eigen::Index(c * C_ + d), k + long(J_) - 1); }
+    // The largest row sum of |G| (its infinity norm).
+    double norm_inf() const;
+
+private:
+    void transform(std::size_t cd);
+
+    std::size_t C_, J_;
+    RealFft &fft_;
+    Eigen::MatrixXd a_;                                          // [c C + d][k + J - 1]
+    Eigen::Matrix<Complex, Eigen::Dynamic, Eigen::Dynamic> A_;  // [c C + d][bin]: their spectra
+};
+
+ToeplitzOperator::ToeplitzOperator(const Eigen::VectorXd &R, std::size_t C, std::size_t J, RealFft &fft)
+    : C_(C), J_(J), fft_(fft), a_(Eigen::Index(C * C), Eigen::Index(lag_count(J))),
+      A_(Eigen::Index(C * C), Eigen::Index(fft.bins()))
+{
+    const std::size_t L = lag_count(J);
+    std::size_t k = 0;
+    for (std::size_t c = 0; c < C; c++)
+        for (std::size_t d = c; d < C; d++, k++)
+            for (std::size_t l = 0; l < L; l++) {
+                a_(Eigen::Index(c * C + d), Eigen::Index(l)) = R(Eigen::Index(k * L + l));
+                a_(Eigen::Index(d * C + c), Eigen::Index(L - 1 - l)) = R(Eigen::Index(k * L + l));
+            }
+    for (std::size_t cd = 0; cd < C * C; cd++)
+        transform(cd);
+}
+
+void ToeplitzOperator::transform(std::size_t cd)
+{
+    fft_.forward_padded(a_.row(Eigen::Index(cd)).eval().data(), lag_count(J_));
+    for (std::size_t b = 0; b < fft_.bins(); b++)
+        A_(Eigen::Index(cd), Eigen::Index(b)) = fft_.spectrum()[b];
+}
+
+void ToeplitzOperator::regularise(double beta, const std::vector<double> &pen)
+{
+    for (std::size_t c = 0; c < C_; c++) {
+        for (std::size_t l = 0; l < lag_count(J_); l++)
+            a_(Eigen::Index(c * C_ + c), Eigen::Index(l)) += beta * pen[l];
+        transform(c * C_ + c);
+    }
+}
+
+void ToeplitzOperator::perform_op(const double *x, double *y) const
+{
+    // y_c[j] = sum_d (a_cd conv x_d)[j + J - 1]: a_cd from position 0 (lag
+    // 1 - J), x_d from 0; the linear convolution's 3 J - 2 samples fit.
+    const Eigen::Index bins = Eigen::Index(fft_.bins());
+    Eigen::Matrix<Complex, Eigen::Dynamic, Eigen::Dynamic> X(bins, Eigen::Index(C_));
+    for (std::size_t d = 0; d < C_; d++) {
+        fft_.forward_padded(x + d * J_, J_);
+        X.col(Eigen::Index(d)) = Eigen::Map<const Eigen::VectorXcd>(fft_.spectrum(), bins);
+    }
+    const double scale = 1.0 / double(fft_.size());
+    for (std::size_t c = 0; c < C_; c++) {
+        Eigen::Map<Eigen::VectorXcd> Y(fft_.spectrum(), bins);
+        Y.setZero();
+        for (std::size_t d = 0; d < C_; d++)
+            Y += A_.row(Eigen::Index(c * C_ + d)).transpose().cwiseProduct(X.col(Eigen::Index(d)));
+        fft_.inverse();
+        for (std::size_t j = 0; j < J_; j++)
+            y[c * J_ + j] = fft_.real()[j + J_ - 1] * scale;
+    }
+}
+
+double ToeplitzOperator::norm_inf() const
+{
+    // Row (c, j) meets the lags j - J + 1 ... j of every a_cd: a window of J
+    // over the prefix sums of |a_cd|.
+    const std::size_t L = lag_count(J_);
+    Eigen::MatrixXd sums = Eigen::MatrixXd::Zero(Eigen::Index(C_), Eigen::Index(L + 1));
+    for (std::size_t c = 0; c < C_; c++)
+        for (std::size_t d = 0; d < C_; d++) {
+            double s = 0;
+            for (std::size_t l = 0; l < L; l++) {
+                s += std::abs(a_(Eigen::Index(c * C_ + d), Eigen::Index(l)));
+                sums(Eigen::Index(c), Eigen::Index(l + 1)) += s;
             }
         }
-    return R;
+    double top = 0;
+    for (std::size_t c = 0; c < C_; c++)
+        for (std::size_t j = 0; j < J_; j++)
+            top = std::max(top, sums(Eigen::Index(c), Eigen::Index(j + J_)) - sums(Eigen::Index(c), Eigen::Index(j)));
+    return top;
+}
+
+// The inverse of the regularised normal matrix by its block Toeplitz
+// structure. Reordered by time first, G is symmetric block Toeplitz: block
+// (j, jj) is the C x C matrix M_{j - jj}, M_k[c][d] = a_cd[k], M_{-k} = M_k^T.
+// Block Levinson (Whittle; Wiggins & Robinson) grows the forward and backward
+// predictors F^k, B^k of the leading k + 1 blocks T_k,
+//   T_k F^k = [E_f^k; 0 ...],  T_k B^k = [... 0; E_b^k],  F^k_0 = B^k_k = I,
+// and the B^k as columns make the unit upper triangular U with
+// G^{-1} = U diag(E_b^k)^{-1} U^T (U^T G U is lower triangular and symmetric,
+// so block diagonal): 2 C^3 J^2 products against the (C J)^3 / 3 of a
+// Cholesky factor, 1/20 for 8 exciters and J = 172.
+class BlockLevinson {
+public:
+    BlockLevinson(std::size_t C, std::size_t J);
+    // Factors G (its lags); false when an E^k is not positive definite.
+    bool factor(const ToeplitzOperator &G);
+    // G^{-1} r in G's ordering (channel first).
+    Eigen::VectorXd solve(const Eigen::VectorXd &r) const;
+
+private:
+    std::size_t C_, J_;
+    Eigen::MatrixXd U_;                             // time first; only its strict upper triangle is read
+    std::vector<Eigen::LLT<Eigen::MatrixXd>> E_;  // E_b^k
+    Eigen::MatrixXd row_, top_, F_, B_, f_;        // the factorisation's room, kept for the next one
+};
+
+BlockLevinson::BlockLevinson(std::size_t C, std::size_t J)
+    : C_(C), J_(J), U_(Eigen::Index(C * J), Eigen::Index(C * J)), row_(Eigen::Index(C), Eigen::Index(C * J)),
+      top_(Eigen::Index(C), Eigen::Index(C * J)), F_(Eigen::Index(C * J), Eigen::Index(C)),
+      B_(Eigen::Index(C * J), Eigen::Index(C)), f_(Eigen::Index(C * J), Eigen::Index(C))
+{
+}
+
+bool BlockLevinson::factor(const ToeplitzOperator &G)
+{
+    using Eigen::Index;
+    const Index c = Index(C_), Jl = Index(J_);
+    // [M_{J-1} ... M_1 M_0] and [M_0^T M_1^T ... M_{J-1}^T] side by side: the
+    // block rows that meet F^k and B^k.
+    for (Index k = 0; k < Jl; k++)
+        for (Index a = 0; a < c; a++)
+            for (Index d = 0; d < c; d++) {
+                const double m = G.lag(std::size_t(a), std::size_t(d), long(k));
+                row_(a, (Jl - 1 - k) * c + d) = m;
+                top_(d, k * c + a) = m;
+            }
+    // F^k in the top rows of F_, B^k in the bottom rows of B_ (so [0; B^k]
+    // is B^k where it is).
+    const Index n = c * Jl;
+    F_.setZero();
+    B_.setZero();
+    F_.topRows(c).setIdentity();
+    B_.bottomRows(c).setIdentity();
+    Eigen::MatrixXd Ef = row_.rightCols(c), Eb = Ef;
+    E_.clear();
+    E_.emplace_back(Eb);
+    U_.topLeftCorner(c, c).setIdentity();
+    for (Index k = 0; k + 1 < Jl; k++) {
+        const Index m = (k + 1) * c;
+        const Eigen::LLT<Eigen::MatrixXd> lf(Ef);
+        if (E_.back().info() != Eigen::Success || lf.info() != Eigen::Success)
+            return false;
+        // T_{k+1} [F^k; 0] = [E_f; 0 ...; df], T_{k+1} [0; B^k] = [db; 0 ...; E_b]:
+        // F^{k+1} = [F^k; 0] + [0; B^k] alpha, B^{k+1} = [0; B^k] + [F^k; 0] beta.
+        const Eigen::MatrixXd df = row_.middleCols((Jl - 2 - k) * c, m) * F_.topRows(m);
+        const Eigen::MatrixXd db = top_.middleCols(c, m) * B_.bottomRows(m);
+        const Eigen::MatrixXd alpha = -E_.back().solve(df), beta = -lf.solve(db);
+        f_.topRows(m) = F_.topRows(m);
+        F_.middleRows(c, m).noalias() += B_.bottomRows(m) * alpha;
+        B_.middleRows(n - m - c, m).noalias() += f_.topRows(m) * beta;
+        Ef.noalias() += db * alpha;
+        Eb.noalias() += df * beta;
+        E_.emplace_back(Eb);
+        U_.block(0, m, m + c, c) = B_.bottomRows(m + c);
+    }
+    return E_.back().info() == Eigen::Success;
+}
+
+Eigen::VectorXd BlockLevinson::solve(const Eigen::VectorXd &r) const
+{
+    using Eigen::Index;
+    const Index c = Index(C_), J = Index(J_), n = c * J;
+    Eigen::VectorXd y(n);
+    for (Index j = 0; j < J; j++)
+        for (Index a = 0; a < c; a++)
+            y(j * c + a) = r(a * J + j);
+    y = U_.triangularView<Eigen::UnitUpper>().transpose() * y;
+    for (Index j = 0; j < J; j++)
+        y.segment(j * c, c) = E_[std::size_t(j)].solve(y.segment(j * c, c));
+    y = U_.triangularView<Eigen::UnitUpper>() * y;
+    Eigen::VectorXd x(n);
+    for (Index j = 0; j < J; j++)
+        for (Index a = 0; a < c; a++)
+            x(a * J + j) = y(j * c + a);
+    return x;
+}
+
+// G x = b by BlockLevinson and iterative refinement until the residual is as
+// small as a backward-stable solve leaves it (LAPACK's dsposv criterion),
+// |r| <= |x| |G| eps sqrt(n) (infinity norms, eps double's): the result is
+// then as accurate as the Cholesky solve's. False when Levinson breaks down
+// or does not get there in a few passes, and the caller factors G.
+bool toeplitz_solve(const ToeplitzOperator &G, BlockLevinson &lev, const Eigen::VectorXd &b, Eigen::VectorXd &x)
+{
+    if (!lev.factor(G))
+        return false;
+    const double bound = G.norm_inf() * std::numeric_limits<double>::epsilon() * std::sqrt(double(G.rows()));
+    x = lev.solve(b);
+    Eigen::VectorXd r(G.rows());
+    for (int pass = 0; pass < 10; pass++) {
+        G.perform_op(x.data(), r.data());
+        r = b - r;
+        if (!r.allFinite())
+            return false;
+        if (r.lpNorm<Eigen::Infinity>() <= bound * x.lpNorm<Eigen::Infinity>())
+            return true;
+        x += lev.solve(r);
+    }
+    return false;
+}
+
+// The penalty's blocks added to G: beta (I + rho P_out) per channel.
+void add_penalty(Eigen::MatrixXd &G, double beta, const std::vector<double> &pen, std::size_t C, std::size_t J)
+{
+    for (std::size_t j = 0; j < J; j++)
+        for (std::size_t jj = 0; jj < J; jj++) {
+            const double v = beta * pen[j + J - 1 - jj];
+            for (std::size_t c = 0; c < C; c++)
+                G(Eigen::Index(c * J + j), Eigen::Index(c * J + jj)) += v;
+        }
+}
+
+// Regularised: Cholesky, LDLT if that fails; unregularised: the
+// minimum-norm least-squares solution. G with the penalty.
+Eigen::VectorXd dense_solve(const Eigen::MatrixXd &G, const Eigen::VectorXd &b, bool regularised)
+{
+    if (!regularised)
+        return G.completeOrthogonalDecomposition().solve(b);
+    Eigen::LLT<Eigen::MatrixXd> llt(G);
+    if (llt.info() == Eigen::Success)
+        return llt.solve(b);
+    return G.ldlt().solve(b);
+}
+
+// The design from the solution x of the normal equations.
+InverseFilterDesign design_of(const Eigen::VectorXd &x, double lambda_max, double beta, std::size_t C, std::size_t J,
+                              double rate_hz)
+{
+    if (!x.allFinite())
+        throw std::runtime_error("inverse filter: the solve gave non-finite drives");
+    InverseFilterDesign out;
+    out.lambda_max = lambda_max;
+    out.beta = beta;
+    out.drive.assign(C, std::vector<double>(J));
+    for (std::size_t c = 0; c < C; c++)
+        for (std::size_t j = 0; j < J; j++)
+            out.drive[c][j] = x(Eigen::Index(c * J + j)) * rate_hz;  // w = (1/R) h * s
+    return out;
+}
+
+// The regularised design from the data part of G (overwritten).
+InverseFilterDesign solve_design(Eigen::MatrixXd &G, const Eigen::VectorXd &b, const std::vector<double> &pen,
+                                 double regularization, std::size_t C, std::size_t J, double rate_hz)
+{
+    const double lambda_max = largest_eigenvalue(G), beta = regularization * lambda_max;
+    if (beta > 0)
+        add_penalty(G, beta, pen, C, J);
+    return design_of(dense_solve(G, b, beta > 0), lambda_max, beta, C, J, rate_hz);
+}
+
+// The same design from R (summed_correlations) without forming G: lambda_max
+// and the solve through ToeplitzOperator and BlockLevinson, G formed and
+// factored only where those do not get there (then as solve_design).
+InverseFilterDesign toeplitz_design(const Eigen::VectorXd &R, const Eigen::VectorXd &b,
+                                    const std::vector<double> &pen, double regularization, std::size_t C,
+                                    std::size_t J, double rate_hz, RealFft &fft, BlockLevinson &lev)
+{
+    if (C * J <= 8) {
+        Eigen::MatrixXd G = normal_matrix(R, C, J);
+        return solve_design(G, b, pen, regularization, C, J, rate_hz);
+    }
+    ToeplitzOperator op(R, C, J, fft);
+    const double lambda_max = lanczos_largest(op), beta = regularization * lambda_max;
+    Eigen::VectorXd x;
+    if (beta > 0) {
+        op.regularise(beta, pen);
+        if (toeplitz_solve(op, lev, b, x))
+            return design_of(x, lambda_max, beta, C, J, rate_hz);
+    }
+    Eigen::MatrixXd G = normal_matrix(R, C, J);
+    if (beta > 0)
+        add_penalty(G, beta, pen, C, J);
+    return design_of(dense_solve(G, b, beta > 0), lambda_max, beta, C, J, rate_hz);
+}
+
+// Lawson's refinement (minimax_design): `design` maps the control weights to
+// a design, `fields` a drive to, per plate, the field at the Q control points
+// then at the foci.
+template <typename Design, typename Fields>
+InverseFilterDesign lawson(std::size_t Q, int iterations, std::vector<double> &weights, Design design, Fields fields)
+{
+    weights.assign(Q, 1.0);
+    InverseFilterDesign best;
+    double best_ratio = -1;
+    for (int it = 0; it <= iterations; it++) {
+        InverseFilterDesign d = design(weights);
+        // Per control point its largest |w| over time relative to its plate's
+        // focal peak (the weakest focus's), the largest over the plates (what
+        // the worst plate's contrast sees; a plate that is louder overall does
+        // not count as worse). One plate: |w| itself (the same weights, bit
+        // for bit).
+        const std::vector<std::vector<std::vector<float>>> ws = fields(d.drive);
+        std::vector<double> m(Q, 0.0);
+        double worst = 0, focal = 1;
+        for (const auto &w : ws) {
+            focal = INFINITY;
+            for (std::size_t i = Q; i < w.size(); i++)
+                focal = std::min(focal, sample_peak(w[i].data(), w[i].size()));
+            const double scale = ws.size() > 1 ? 1 / std::max(focal, 1e-300) : 1.0;
+            for (std::size_t q = 0; q < Q; q++)
+                m[q] = std::max(m[q], sample_peak(w[q].data(), w[q].size()) * scale);
+        }
+        for (std::size_t q = 0; q < Q; q++)
+            worst = std::max(worst, m[q]);
+        // The focal peak over the worst control point (of the worst plate).
+        const double ratio = (ws.size() > 1 ? 1.0 : focal) / std::max(worst, 1e-300);
+        if (ratio > best_ratio) {
+            best_ratio = ratio;
+            best = std::move(d);
+        }
+        if (!(worst > 0))
+            break;
+        double sum = 0;
+        for (std::size_t q = 0; q < Q; q++)
+            sum += (weights[q] *= m[q] / worst);
+        for (double &v : weights)
+            v *= double(Q) / sum;
+    }
+    return best;
 }
 
 void check_plates(const Plates &plates)
@@ -144,7 +553,6 @@ InverseFilterDesign design_inverse_filter(const Plates &plates, const InverseFil
             throw std::invalid_argument("inverse filter: focus point not in the transfer matrix");
     if (!(o.regularization >= 0) || !(o.focus_weight > 0))
         throw std::invalid_argument("inverse filter: regularization must be >= 0 and the focus weight > 0");
-    const std::size_t n = C * J;
 
     // The data part of the normal matrix: the foci and the control points.
     std::vector<std::size_t> points = p.foci;
@@ -157,67 +565,9 @@ InverseFilterDesign design_inverse_filter(const Plates &plates, const InverseFil
         points.push_back(p.control[i]);
         weights.push_back(p.control_weights.empty() ? 1.0 : p.control_weights[i]);
     }
-    const auto R = summed_correlations(plates, points, weights, J);
-    Eigen::MatrixXd G(n, n);
-    for (std::size_t c = 0; c < C; c++)
-        for (std::size_t d = c; d < C; d++)
-            for (std::size_t j = 0; j < J; j++)
-                for (std::size_t jj = 0; jj < J; jj++) {
-                    // G[(c,j),(d,jj)] = sum_m h_c[m] h_d[m + j - jj]
-                    const double v = R[c][d][j + J - 1 - jj];
-                    G(Eigen::Index(c * J + j), Eigen::Index(d * J + jj)) = v;
-                    G(Eigen::Index(d * J + jj), Eigen::Index(c * J + j)) = v;
-                }
-
-    // Right-hand side: W_f A_f^T d summed over the plates and the foci,
-    // b[(c,j)] = W_f sum_m sum_f sum_n h^m_cf[n] d[n + j].
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(Eigen::Index(n));
-    for (const TransferMatrix *Hm : plates)
-        for (std::size_t f : p.foci)
-            for (std::size_t c = 0; c < C; c++) {
-                const float *h = Hm->response(c, f);
-                for (std::size_t j = 0; j < J; j++) {
-                    double acc = 0;
-                    for (std::size_t m = 0; m < S && m + j < p.target.size(); m++)
-                        acc += double(h[m]) * p.target[m + j];
-                    b(Eigen::Index(c * J + j)) += o.focus_weight * acc;
-                }
-            }
-
-    InverseFilterDesign out;
-    out.lambda_max = largest_eigenvalue(G);
-    out.beta = o.regularization * out.lambda_max;
-    Eigen::VectorXd x;
-    if (out.beta > 0) {
-        // beta (I + rho P_out) per channel, P_out[l] = delta_l - 2 nu sinc(2 nu l):
-        // the drive's energy above nu = band_edge / R cycles per sample.
-        const double nu = o.band_edge_hz > 0 ? std::min(0.5, o.band_edge_hz / H.rate_hz) : 0.5;
-        const double rho = o.band_edge_hz > 0 ? o.out_of_band_weight : 0.0;
-        for (std::size_t j = 0; j < J; j++)
-            for (std::size_t jj = 0; jj < J; jj++) {
-                const double l = double(j) - double(jj);
-                const double x2 = 2 * nu * l;
-                const double sinc = l == 0 ? 1.0 : std::sin(std::numbers::pi * x2) / (std::numbers::pi * x2);
-                const double pen = out.beta * ((j == jj ? 1.0 : 0.0) + rho * ((j == jj ? 1.0 : 0.0) - 2 * nu * sinc));
-                for (std::size_t c = 0; c < C; c++)
-                    G(Eigen::Index(c * J + j), Eigen::Index(c * J + jj)) += pen;
-            }
-        Eigen::LLT<Eigen::MatrixXd> llt(G);
-        if (llt.info() == Eigen::Success)
-            x = llt.solve(b);
-        else
-            x = G.ldlt().solve(b);
-    } else {
-        // Unregularised: the minimum-norm least-squares solution.
-        x = G.completeOrthogonalDecomposition().solve(b);
-    }
-    if (!x.allFinite())
-        throw std::runtime_error("inverse filter: the solve gave non-finite drives");
-    out.drive.assign(C, std::vector<double>(J));
-    for (std::size_t c = 0; c < C; c++)
-        for (std::size_t j = 0; j < J; j++)
-            out.drive[c][j] = x(Eigen::Index(c * J + j)) * H.rate_hz;  // w = (1/R) h * s
-    return out;
+    Eigen::MatrixXd G = normal_matrix(summed_correlations(plates, points, weights, J), C, J);
+    return solve_design(G, focus_rhs(plates, p, o), penalty_lags(o, H.rate_hz, J), o.regularization, C, J,
+                        H.rate_hz);
 }
 
 std::vector<std::size_t> control_points(const CalibrationInput &in, const TransferMatrix &H, std::size_t f)
@@ -274,53 +624,24 @@ InverseFilterDesign minimax_design(const Plates &plates, InverseFilterProblem p,
     check_plates(plates);
     std::vector<std::size_t> served = p.control;
     served.insert(served.end(), p.foci.begin(), p.foci.end());
-    const std::size_t Q = p.control.size();
     std::vector<std::unique_ptr<Playback>> pb;
     for (const TransferMatrix *Hm : plates)
         pb.push_back(std::make_unique<Playback>(*Hm, served, p.drive_samples, p.drive_samples + Hm->samples - 1));
-    p.control_weights.assign(Q, 1.0);
-    InverseFilterDesign best;
-    double best_ratio = -1;
-    for (int it = 0; it <= o.minimax_iterations; it++) {
-        InverseFilterDesign d = design_inverse_filter(plates, p, o);
-        // Per control point its largest |w| over time relative to its plate's
-        // focal peak (the weakest focus's), the largest over the plates (what
-        // the worst plate's contrast sees; a plate that is louder overall does
-        // not count as worse). One plate: |w| itself (the same weights, bit
-        // for bit).
-        std::vector<double> m(Q, 0.0);
-        double worst = 0, focal = 1;
-        for (const auto &play : pb) {
-            const auto w = play->field(d.drive);
-            focal = INFINITY;
-            for (std::size_t i = Q; i < w.size(); i++)
-                focal = std::min(focal, sample_peak(w[i].data(), w[i].size()));
-            const double scale = pb.size() > 1 ? 1 / std::max(focal, 1e-300) : 1.0;
-            for (std::size_t q = 0; q < Q; q++)
-                m[q] = std::max(m[q], sample_peak(w[q].data(), w[q].size()) * scale);
-        }
-        for (std::size_t q = 0; q < Q; q++)
-            worst = std::max(worst, m[q]);
-        // The focal peak over the worst control point (of the worst plate).
-        const double ratio = (pb.size() > 1 ? 1.0 : focal) / std::max(worst, 1e-300);
-        if (ratio > best_ratio) {
-            best_ratio = ratio;
-            best = std::move(d);
-        }
-        if (!(worst > 0))
-            break;
-        double sum = 0;
-        for (std::size_t q = 0; q < Q; q++)
-            sum += (p.control_weights[q] *= m[q] / worst);
-        for (double &v : p.control_weights)
-            v *= double(Q) / sum;
-    }
-    return best;
+    return lawson(
+        p.control.size(), o.minimax_iterations, p.control_weights,
+        [&](const std::vector<double> &) { return design_inverse_filter(plates, p, o); },
+        [&](const std::vector<std::vector<double>> &drive) {
+            std::vector<std::vector<std::vector<float>>> w;
+            for (const auto &play : pb)
+                w.push_back(play->field(drive));
+            return w;
+        });
 }
 
-std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H)
+std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H,
+                                               const ProgressFn &progress)
 {
-    return inverse_filter_signals(in, Plates{&H});
+    return inverse_filter_signals(in, Plates{&H}, progress);
 }
 
 namespace {
@@ -335,42 +656,258 @@ TimeReversalOptions finishing(const CalibrationInput &in, uint64_t dither_seed)
     return tro;
 }
 
-// The scene's design of the foci `set` (indices into the scene's foci) over
-// `plates`, at full scale.
-DriveSignals scene_design(const CalibrationInput &in, const Plates &plates, const std::vector<std::size_t> &set,
-                          uint64_t dither_seed)
+// The scene's drive length J at H's rate: its lead time.
+std::size_t scene_drive_samples(const CalibrationInput &in, const TransferMatrix &H)
 {
-    const TransferMatrix &H = *plates.front();
-    const TimeReversalOptions tro = finishing(in, dither_seed);
+    return static_cast<std::size_t>(std::floor(target_lead_time_s(in) * H.rate_hz + 1e-9)) + 1;
+}
+
+// The scene's options (the same for every focus).
+InverseFilterOptions scene_options(const CalibrationInput &in)
+{
     InverseFilterOptions o;
     o.regularization = in.calibration.regularization;
     o.band_edge_hz = pulse_max_frequency_hz(in.pulse);
-    const double lead = target_lead_time_s(in), centre = focus_centre_s(in);
+    return o;
+}
+
+// The scene's problem of the foci `set` (indices into the scene's foci) on H.
+InverseFilterProblem scene_problem(const CalibrationInput &in, const TransferMatrix &H,
+                                   const std::vector<std::size_t> &set)
+{
     InverseFilterProblem p;
-    p.drive_samples = static_cast<std::size_t>(std::floor(lead * H.rate_hz + 1e-9)) + 1;
-    p.target = focus_target(in, H.rate_hz, centre);
-    const double delay = double(std::lround((centre - pulse_duration_s(in.pulse) / 2) * H.rate_hz)) / H.rate_hz +
-                         pulse_duration_s(in.pulse) / 2;
+    p.drive_samples = scene_drive_samples(in, H);
+    p.target = focus_target(in, H.rate_hz, focus_centre_s(in));
     for (std::size_t f : set)
         p.foci.push_back(H.exact_begin() + f);
     p.control = control_points(in, H, set);
-    InverseFilterDesign d = minimax_design(plates, p, o);
-    return finish_drive_signals(std::move(d.drive), H.rate_hz, delay, tro);
+    return p;
+}
+
+// Every point a scene's design can weigh: the lattice points in the active
+// area and the foci (control_points draws from these).
+std::vector<std::size_t> scene_points(const CalibrationInput &in, const TransferMatrix &H)
+{
+    const Rect &a = in.active.area;
+    std::vector<std::size_t> q;
+    for (std::size_t n = 0; n < H.lattice.size(); n++) {
+        const Point p = H.lattice.at(n);
+        if (p.x_m >= a.x0_m && p.x_m <= a.x1_m && p.y_m >= a.y0_m && p.y_m <= a.y1_m)
+            q.push_back(n);
+    }
+    for (std::size_t g = 0; g < in.foci.points.size(); g++)
+        if (H.exact_begin() + g < H.point_count())
+            q.push_back(H.exact_begin() + g);
+    return q;
+}
+
+// What the designs of all foci share. A focus's normal matrix is
+//   sum_{p in Q_f} w_p G_p + W_f G_f,
+// G_p the block Toeplitz matrix of point p's cross-correlations, which does
+// not depend on the focus nor on the weights: so each point's correlations
+// (summed over the plates) are computed once, and a design's R (see
+// summed_correlations) is their weighted sum, R = Rp w, w zero at the points
+// the focus does not weigh. Likewise one playback serves every focus's
+// minimax refinement, and each design is solved without forming G
+// (toeplitz_design). The designs are those of minimax_design to round-off
+// (the sums taken in another order, another backward-stable solve);
+// test_inverse_filter_shared checks it.
+class SharedDesigns {
+public:
+    SharedDesigns(const Plates &plates, const std::vector<std::size_t> &points, std::size_t drive_samples);
+    // minimax_design(plates, p, o), p's points among those served.
+    InverseFilterDesign minimax(InverseFilterProblem p, const InverseFilterOptions &o) const;
+
+private:
+    Eigen::Index column(std::size_t point) const;
+
+    const Plates &plates_;
+    std::size_t J_;
+    std::vector<std::ptrdiff_t> column_;            // per point of H, its column of Rp (-1: not served)
+    Eigen::MatrixXd Rp_;                            // [pair, lag][point], as R with that point alone at weight 1
+    std::vector<std::unique_ptr<Playback>> play_;  // per plate, the served points
+};
+
+SharedDesigns::SharedDesigns(const Plates &plates, const std::vector<std::size_t> &points, std::size_t J)
+    : plates_(plates), J_(J), column_(plates.front()->point_count(), -1)
+{
+    const TransferMatrix &H = *plates.front();
+    const std::size_t C = H.channels, S = H.samples, N = next_pow2(S + J - 1), L = lag_count(J), P = points.size();
+    const std::size_t pairs = C * (C + 1) / 2, bins = N / 2 + 1;
+    for (std::size_t i = 0; i < P; i++)
+        column_[points[i]] = std::ptrdiff_t(i);
+    Rp_.resize(Eigen::Index(pairs * L), Eigen::Index(P));
+    std::string failure;
+#pragma omp parallel
+    {
+        const std::unique_ptr<RealFft> fft = thread_fft(N, failure);
+        std::vector<Complex> X(C * bins), cross(pairs * bins);
+#pragma omp for schedule(dynamic, 8)
+        for (std::size_t i = 0; i < P; i++) {
+            if (!fft)
+                continue;
+            std::fill(cross.begin(), cross.end(), Complex{});
+            for (const TransferMatrix *Hm : plates) {
+                for (std::size_t c = 0; c < C; c++) {
+                    fft->forward_padded(Hm->response(c, points[i]), S);
+                    std::copy(fft->spectrum(), fft->spectrum() + bins, X.begin() + long(c * bins));
+                }
+                std::size_t k = 0;
+                for (std::size_t c = 0; c < C; c++)
+                    for (std::size_t d = c; d < C; d++, k++)
+                        for (std::size_t b = 0; b < bins; b++)
+                            cross[k * bins + b] += std::conj(X[c * bins + b]) * X[d * bins + b];
+            }
+            for (std::size_t k = 0; k < pairs; k++) {
+                std::copy(cross.begin() + long(k * bins), cross.begin() + long((k + 1) * bins), fft->spectrum());
+                fft->inverse();
+                for (std::size_t l = 0; l < L; l++) {
+                    const long lag = long(l) - long(J - 1);
+                    Rp_(Eigen::Index(k * L + l), Eigen::Index(i)) =
+                        fft->real()[std::size_t((lag + long(N)) % long(N))] / double(N);
+                }
+            }
+        }
+    }
+    if (!failure.empty())
+        throw std::runtime_error("inverse filter: " + failure);
+    for (const TransferMatrix *Hm : plates)
+        play_.push_back(std::make_unique<Playback>(*Hm, points, J, J + Hm->samples - 1));
+}
+
+Eigen::Index SharedDesigns::column(std::size_t point) const
+{
+    if (point >= column_.size() || column_[point] < 0)
+        throw std::invalid_argument("inverse filter: point " + std::to_string(point) + " not among those served");
+    return Eigen::Index(column_[point]);
+}
+
+InverseFilterDesign SharedDesigns::minimax(InverseFilterProblem p, const InverseFilterOptions &o) const
+{
+    const TransferMatrix &H = *plates_.front();
+    const std::size_t C = H.channels, J = J_;
+    if (p.drive_samples != J || p.target.empty() || p.foci.empty())
+        throw std::invalid_argument("inverse filter: empty problem or another drive length than the one shared");
+    if (!(o.regularization >= 0) || !(o.focus_weight > 0))
+        throw std::invalid_argument("inverse filter: regularization must be >= 0 and the focus weight > 0");
+    if (!p.control_weights.empty() && p.control_weights.size() != p.control.size())
+        throw std::invalid_argument("inverse filter: one weight per control point");
+    std::vector<std::size_t> which;  // the control points then the foci, as columns
+    for (std::size_t q : p.control)
+        which.push_back(std::size_t(column(q)));
+    for (std::size_t f : p.foci)
+        which.push_back(std::size_t(column(f)));
+    const std::size_t Q = p.control.size();
+    const Eigen::VectorXd b = focus_rhs(plates_, p, o);
+    const std::vector<double> pen = penalty_lags(o, H.rate_hz, J);
+    RealFft fft(fft_friendly_size(3 * J - 2));
+    BlockLevinson lev(C, J);
+    auto design = [&](const std::vector<double> &weights) {
+        Eigen::VectorXd w = Eigen::VectorXd::Zero(Rp_.cols());
+        for (std::size_t i = Q; i < which.size(); i++)
+            w(Eigen::Index(which[i])) += o.focus_weight;
+        for (std::size_t i = 0; i < Q; i++)
+            w(Eigen::Index(which[i])) += weights.empty() ? 1.0 : weights[i];
+        return toeplitz_design(Rp_ * w, b, pen, o.regularization, C, J, H.rate_hz, fft, lev);
+    };
+    if (o.minimax_iterations <= 0 || p.control.empty())
+        return design(p.control_weights);
+    return lawson(Q, o.minimax_iterations, p.control_weights, design, [&](const std::vector<std::vector<double>> &d) {
+        std::vector<std::vector<std::vector<float>>> w;
+        for (const auto &play : play_)
+            w.push_back(play->field(d, which));
+        return w;
+    });
+}
+
+// The scene's designs of `sets` (each a set of indices into the scene's
+// foci) over `plates`. Shared: through SharedDesigns, the sets in parallel
+// (Eigen then runs each design on one thread: the same arithmetic whichever
+// sets are asked, so a set's design does not depend on the others);
+// otherwise each from scratch (minimax_design). A failure names the set.
+std::vector<InverseFilterDesign> scene_designs(const CalibrationInput &in, const Plates &plates,
+                                               const std::vector<std::vector<std::size_t>> &sets,
+                                               const std::vector<std::string> &names, bool shared,
+                                               const ProgressFn &progress)
+{
+    check_plates(plates);
+    const TransferMatrix &H = *plates.front();
+    std::vector<InverseFilterDesign> out(sets.size());
+    if (sets.empty())
+        return out;
+    std::unique_ptr<SharedDesigns> common;
+    if (shared)
+        common = std::make_unique<SharedDesigns>(plates, scene_points(in, H), scene_drive_samples(in, H));
+    const InverseFilterOptions o = scene_options(in);
+    std::size_t done = 0;
+    std::string failure;
+    if (progress)
+        progress("signals", 0, sets.size());
+#pragma omp parallel for schedule(dynamic, 1) if (shared)
+    for (std::size_t i = 0; i < sets.size(); i++) {
+        try {
+            InverseFilterProblem p = scene_problem(in, H, sets[i]);
+            out[i] = common ? common->minimax(std::move(p), o) : minimax_design(plates, std::move(p), o);
+        } catch (const std::exception &e) {
+#pragma omp critical(inverse_filter_failure)
+            if (failure.empty())
+                failure = names[i] + ": " + e.what();
+        }
+#pragma omp critical(inverse_filter_progress)
+        {
+            done++;
+            if (progress)
+                progress("signals", done, sets.size());
+        }
+    }
+    if (!failure.empty())
+        throw std::runtime_error(failure);
+    return out;
+}
+
+// The drive of a scene's design at full scale, with the scene's output rate and dither.
+DriveSignals scene_signals(const CalibrationInput &in, const TransferMatrix &H, InverseFilterDesign d,
+                           uint64_t dither_seed)
+{
+    // The focus instant from playback start, on H's sample grid (focus_target).
+    const double delay = double(std::lround((focus_centre_s(in) - pulse_duration_s(in.pulse) / 2) * H.rate_hz)) /
+                             H.rate_hz +
+                         pulse_duration_s(in.pulse) / 2;
+    return finish_drive_signals(std::move(d.drive), H.rate_hz, delay, finishing(in, dither_seed));
 }
 
 }  // namespace
 
-std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const Plates &plates)
+std::vector<InverseFilterDesign> inverse_filter_designs(const CalibrationInput &in, const Plates &plates,
+                                                        const ProgressFn &progress, bool shared)
 {
-    check_plates(plates);
-    std::vector<DriveSignals> out;
+    std::vector<std::vector<std::size_t>> sets;
+    std::vector<std::string> names;
     for (std::size_t f = 0; f < in.foci.points.size(); f++) {
+        sets.push_back({f});
+        names.push_back("focus " + std::to_string(in.foci.points[f].id));
+    }
+    return scene_designs(in, plates, sets, names, shared, progress);
+}
+
+std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const Plates &plates,
+                                                 const ProgressFn &progress)
+{
+    std::vector<InverseFilterDesign> designs = inverse_filter_designs(in, plates, progress);
+    std::vector<DriveSignals> out(designs.size());
+    std::string failure;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::size_t f = 0; f < designs.size(); f++) {
         try {
-            out.push_back(scene_design(in, plates, {f}, in.exciters.seed * 1000003u + f));
+            out[f] = scene_signals(in, *plates.front(), std::move(designs[f]), in.exciters.seed * 1000003u + f);
         } catch (const std::exception &e) {
-            throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
+#pragma omp critical(inverse_filter_failure)
+            if (failure.empty())
+                failure = "focus " + std::to_string(in.foci.points[f].id) + ": " + e.what();
         }
     }
+    if (!failure.empty())
+        throw std::runtime_error(failure);
     return out;
 }
 
@@ -380,9 +917,10 @@ DriveSignals joint_inverse_filter_signals(const CalibrationInput &in, const Tran
     std::string ids;
     for (std::size_t f : set)
         ids += (ids.empty() ? "" : "+") + std::to_string(in.foci.points.at(f).id);
+    InverseFilterDesign design = scene_designs(in, Plates{&H}, {set}, {"foci " + ids}, true, {}).front();
     try {
         const uint64_t seed = in.exciters.seed * 1000003u + 999983u;
-        DriveSignals d = scene_design(in, Plates{&H}, set, seed);
+        DriveSignals d = scene_signals(in, H, std::move(design), seed);
         if (in.effects.exciter && in.effects.exciter->precompensate) {  // as the table's drives
             precompensate_for_exciter(d, *in.effects.exciter, finishing(in, seed));
         }

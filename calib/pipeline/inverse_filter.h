@@ -20,7 +20,10 @@
 //   G[(c,j),(c',j')] = sum_p w_p sum_m h_cp[m] h_c'p[m + j - j'],
 // so it is formed from cross-spectra accumulated point by point (FFT), and the
 // system is C J unknowns however many control points there are: every lattice
-// point of the active area serves, none is subsampled away.
+// point of the active area serves, none is subsampled away. A scene's foci
+// share the per-point correlations (inverse_filter_designs), and the block
+// Toeplitz system is solved by block Levinson in O(C^3 J^2), checked by its
+// residual against what a Cholesky solve leaves (Cholesky where it falls short).
 //
 // Regularisation rule: beta = epsilon * lambda_max(G), epsilon the scene's
 // `regularization` (default 1e-4: on Fig. 7 with the minimax refinement below,
@@ -60,6 +63,7 @@
 // design with the best ratio of the weakest plate's focal peak to the worst
 // control point over the plates.
 #pragma once
+#include "pipeline/calibrate.h"
 #include "pipeline/time_reversal.h"
 #include "pipeline/transfer.h"
 
@@ -135,11 +139,25 @@ std::vector<std::size_t> control_points(const CalibrationInput &in, const Transf
 std::vector<double> focus_target(const CalibrationInput &in, double rate_hz, double centre_s);
 
 // Per focus, the inverse-filter drives at full scale for the scene's lead
-// time (lead_time.h) and regularization.
-std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H);
+// time (lead_time.h) and regularization; progress("signals", done, foci).
+std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H,
+                                                 const ProgressFn &progress = {});
 // Stacked over plates (the nominal H first; the foci and the control points
 // are its).
-std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const Plates &plates);
+std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const Plates &plates,
+                                                 const ProgressFn &progress = {});
+
+// The designs behind inverse_filter_signals (minimax_design of each focus's
+// problem), at H's rate before the fades and the resampling. The foci share
+// what does not depend on the focus: the normal matrix of focus f is
+// sum_{p in Q_f} w_p G_p + W_f G_f, G_p the block Toeplitz matrix of point
+// p's cross-correlations, so each point's are computed once for every focus
+// and minimax pass, and a design weighs them (zero at the points it does not
+// control); one playback serves every focus's refinement; the foci are
+// designed in parallel. `shared` false designs each focus from scratch (the
+// reference: the same drives to round-off, test_inverse_filter_shared).
+std::vector<InverseFilterDesign> inverse_filter_designs(const CalibrationInput &in, const Plates &plates,
+                                                        const ProgressFn &progress = {}, bool shared = true);
 
 // The joint design of a set of foci (indices into the scene's foci; several
 // fingers at once): one drive with every foci row of the set targeting the

@@ -39,7 +39,6 @@ std::vector<Point> candidate_sites(const Band &band, double spacing)
     return sites;
 }
 
-static double dist(Point a, Point b) { return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m); }
 
 double distance_variety(const std::vector<Point> &e, double tol)
 {
@@ -124,8 +123,36 @@ ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> 
         const long last_lag = std::min(static_cast<long>(len) - 1, static_cast<long>(half_window));
         lags_ = static_cast<size_t>(last_lag - first_lag + 1);
     }
-    corr_.assign(sites_ * foci_ * rows_ * lags_, 0.0f);
+    keep_ = keep;
+    nfft_ = nfft;
+    first_lag_ = first_lag;
+    chunks_.push_back({0, rows_, std::vector<float>(sites_ * foci_ * rows_ * lags_, 0.0f)});
+    judged_.assign(foci_ * rows_, 1);
+    for (size_t f = 0; f < foci_; f++)
+        judged_[f * rows_ + f] = 0;
+    correlate(r, h, 0);
+}
 
+void ContrastModel::add_rows(const std::vector<std::vector<std::vector<float>>> &r,
+                             const std::vector<std::vector<std::vector<float>>> &h)
+{
+    const size_t old = rows_, added = h.size() - old;
+    if (h.size() <= old || h[old].size() != sites_)
+        throw std::invalid_argument("contrast model: no rows to add");
+    chunks_.push_back({old, added, std::vector<float>(sites_ * foci_ * added * lags_, 0.0f)});
+    std::vector<char> judged(foci_ * h.size(), 1);
+    for (size_t f = 0; f < foci_; f++)
+        std::copy_n(&judged_[f * old], old, &judged[f * h.size()]);
+    judged_ = std::move(judged);
+    rows_ = h.size();
+    correlate(r, h, old);
+}
+
+void ContrastModel::correlate(const std::vector<std::vector<std::vector<float>>> &r,
+                              const std::vector<std::vector<std::vector<float>>> &h, size_t first_row)
+{
+    const size_t keep = keep_, nfft = nfft_;
+    const long first_lag = first_lag_;
     // Correlations through real FFTs (FFTW), one plan per thread. A thread
     // whose plan failed still takes part in the loop (no thread may leave the
     // work-sharing) and skips its share; the failure is thrown after.
@@ -142,21 +169,22 @@ ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> 
                 continue;
             double *x = fft->real();
             std::complex<double> *X = fft->spectrum();
-            for (size_t g = 0; g < rows_; g++) {
+            for (size_t g = first_row; g < rows_; g++) {
                 fft->forward_padded(h[g][i].data(), h[g][i].size());
                 std::copy(X, X + bins, &spec_full[g * bins]);
-                if (g < foci_) {
-                    fft->forward_padded(r[g][i].data(), keep);
-                    std::copy(X, X + bins, &spec_kept[g * bins]);
-                }
+            }
+            for (size_t f = 0; f < foci_; f++) {
+                fft->forward_padded(r[f][i].data(), keep);
+                std::copy(X, X + bins, &spec_kept[f * bins]);
             }
             for (size_t f = 0; f < foci_; f++)
-                for (size_t g = 0; g < rows_; g++) {
+                for (size_t g = first_row; g < rows_; g++) {
                     const std::complex<double> *kf = &spec_kept[f * bins], *fg = &spec_full[g * bins];
                     for (size_t k = 0; k < bins; k++)
                         X[k] = std::conj(kf[k]) * fg[k];
                     fft->inverse();
-                    float *c = &corr_[((i * foci_ + f) * rows_ + g) * lags_];
+                    Chunk &ch = chunks_.back();
+                    float *c = &ch.corr[((i * foci_ + f) * ch.rows + (g - ch.first_row)) * lags_];
                     for (size_t l = 0; l < lags_; l++) {  // circular index of the lag (first_lag > -nfft)
                         const long lag = first_lag + static_cast<long>(l);
                         c[l] = static_cast<float>(scale *
@@ -171,24 +199,35 @@ ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> 
 
 void ContrastModel::State::add(size_t site, float sign)
 {
-    const float *c = &m_->corr_[site * m_->foci_ * m_->rows_ * m_->lags_];
-    for (size_t k = 0; k < y_.size(); k++)
-        y_[k] += sign * c[k];
+    for (size_t k = 0; k < m_->chunks_.size(); k++) {
+        const Chunk &ch = m_->chunks_[k];
+        const float *c = &ch.corr[site * m_->foci_ * ch.rows * m_->lags_];
+        std::vector<float> &y = y_[k];
+        for (size_t n = 0; n < y.size(); n++)
+            y[n] += sign * c[n];
+    }
 }
 
-ContrastModel::Score ContrastModel::State::evaluate() const
+ContrastModel::Score ContrastModel::State::evaluate(size_t rows) const
 {
     const ContrastModel &m = *m_;
     Score s;
     s.worst_db = std::numeric_limits<double>::infinity();
     for (size_t f = 0; f < m.foci_; f++) {
         double own = 0, other = 0;
-        for (size_t g = 0; g < m.rows_; g++) {
-            const float *y = &y_[(f * m.rows_ + g) * m.lags_];
-            float peak = 0;
-            for (size_t l = 0; l < m.lags_; l++)
-                peak = std::max(peak, std::abs(y[l]));
-            (g == f ? own : other) = std::max(g == f ? own : other, static_cast<double>(peak));
+        for (size_t k = 0; k < m.chunks_.size(); k++) {
+            const Chunk &ch = m.chunks_[k];
+            for (size_t r = 0; r < ch.rows && ch.first_row + r < rows; r++) {
+                const size_t g = ch.first_row + r;
+                const float *y = &y_[k][(f * ch.rows + r) * m.lags_];
+                float peak = 0;
+                for (size_t l = 0; l < m.lags_; l++)
+                    peak = std::max(peak, std::abs(y[l]));
+                if (g == f)
+                    own = std::max(own, static_cast<double>(peak));
+                else if (m.judged_[f * m.rows_ + g])
+                    other = std::max(other, static_cast<double>(peak));
+            }
         }
         const double db = 20 * std::log10(std::max(own, 1e-300) / std::max(other, 1e-300));
         s.per_focus_db.push_back(db);
@@ -201,24 +240,31 @@ template <bool Evaluate>
 double ContrastModel::State::exchange(size_t out, size_t in)
 {
     const ContrastModel &m = *m_;
-    const size_t block = m.foci_ * m.rows_ * m.lags_;
-    const float *co = &m.corr_[out * block], *ci = &m.corr_[in * block];
     double worst = std::numeric_limits<double>::infinity();
     for (size_t f = 0; f < m.foci_; f++) {
         double own = 0, other = 0;
-        for (size_t g = 0; g < m.rows_; g++) {
-            const size_t at = (f * m.rows_ + g) * m.lags_;
-            float *y = &y_[at];
-            const float *a = co + at, *b = ci + at;
-            float peak = 0;
+        for (size_t k = 0; k < m.chunks_.size(); k++) {
+            const Chunk &ch = m.chunks_[k];
+            const size_t block = m.foci_ * ch.rows * m.lags_;
+            const float *co = &ch.corr[out * block], *ci = &ch.corr[in * block];
+            for (size_t r = 0; r < ch.rows; r++) {
+                const size_t g = ch.first_row + r;
+                const size_t at = (f * ch.rows + r) * m.lags_;
+                float *y = &y_[k][at];
+                const float *a = co + at, *b = ci + at;
+                float peak = 0;
 #pragma omp simd reduction(max : peak)
-            for (size_t l = 0; l < m.lags_; l++) {
-                const float v = (y[l] - a[l]) + b[l];  // add(out, -1), add(in, +1)
-                y[l] = v;
-                if constexpr (Evaluate)
-                    peak = std::max(peak, std::abs(v));
+                for (size_t l = 0; l < m.lags_; l++) {
+                    const float v = (y[l] - a[l]) + b[l];  // add(out, -1), add(in, +1)
+                    y[l] = v;
+                    if constexpr (Evaluate)
+                        peak = std::max(peak, std::abs(v));
+                }
+                if (g == f)
+                    own = std::max(own, static_cast<double>(peak));
+                else if (m.judged_[f * m.rows_ + g])
+                    other = std::max(other, static_cast<double>(peak));
             }
-            (g == f ? own : other) = std::max(g == f ? own : other, static_cast<double>(peak));
         }
         if constexpr (Evaluate)
             worst = std::min(worst, 20 * std::log10(std::max(own, 1e-300) / std::max(other, 1e-300)));
@@ -229,12 +275,12 @@ double ContrastModel::State::exchange(size_t out, size_t in)
 double ContrastModel::State::swap(size_t out, size_t in) { return exchange<true>(out, in); }
 void ContrastModel::State::undo(size_t out, size_t in) { (void)exchange<false>(out, in); }
 
-ContrastModel::Score ContrastModel::score(const std::vector<size_t> &chosen) const
+ContrastModel::Score ContrastModel::score(const std::vector<size_t> &chosen, size_t rows) const
 {
     State st(*this);
     for (size_t i : chosen)
         st.add(i, 1.0f);
-    return st.evaluate();
+    return st.evaluate(rows);
 }
 
 // ---- search ----

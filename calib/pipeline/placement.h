@@ -3,8 +3,10 @@
 // simulated responses by reciprocity, and a seeded randomized search
 // (random restarts + simulated annealing with local moves).
 #pragma once
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <functional>
 #include <vector>
 
@@ -13,6 +15,7 @@ namespace calib::pipeline {
 struct Point {
     double x_m = 0, y_m = 0;
 };
+inline double dist(Point a, Point b) { return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m); }
 
 struct Rect {
     double x0_m = 0, y0_m = 0, x1_m = 0, y1_m = 0;
@@ -69,20 +72,41 @@ public:
                   size_t half_window = 0);
     size_t sites() const { return sites_; }
     size_t foci() const { return foci_; }
-    size_t bytes() const { return corr_.size() * sizeof(float); }
+    size_t rows() const { return rows_; }
+    // Row g no longer counts against focus f (a probe point within lambda/2
+    // of it: inside its own spot). By default every row but f's own counts.
+    void ignore(size_t f, size_t g) { judged_[f * rows_ + g] = 0; }
+    // More rows (probe points): r and h as given to the constructor with the
+    // new emitters' responses appended; only the new rows are correlated.
+    void add_rows(const std::vector<std::vector<std::vector<float>>> &pulse_responses,
+                  const std::vector<std::vector<std::vector<float>>> &impulse_responses);
+    size_t bytes() const
+    {
+        size_t b = 0;
+        for (const Chunk &c : chunks_)
+            b += c.corr.size() * sizeof(float);
+        return b;
+    }
+    // Bytes of one more row.
+    size_t row_bytes() const { return sites_ * foci_ * lags_ * sizeof(float); }
 
     struct Score {
         double worst_db = 0;               // min over foci of 20 log10(contrast)
         std::vector<double> per_focus_db;
     };
-    Score score(const std::vector<size_t> &chosen) const;
+    // Over the first `rows` rows only (the foci and the first probes).
+    Score score(const std::vector<size_t> &chosen, size_t rows = SIZE_MAX) const;
 
     // Running sum for a set, updated in O(foci * rows * lags) per exchanged site.
     class State {
     public:
-        explicit State(const ContrastModel &m) : m_(&m), y_(m.foci_ * m.rows_ * m.lags_, 0.0f) {}
+        explicit State(const ContrastModel &m) : m_(&m)
+        {
+            for (const Chunk &c : m.chunks_)
+                y_.emplace_back(m.foci_ * c.rows * m.lags_, 0.0f);
+        }
         void add(size_t site, float sign);
-        Score evaluate() const;
+        Score evaluate(size_t rows = SIZE_MAX) const;
         // add(out, -1) then add(in, +1) in one pass over the sums, element by
         // element in the same order of operations (so the same floats), and
         // the worst_db evaluate() would then return (swap), or nothing (undo).
@@ -92,12 +116,23 @@ public:
         template <bool Evaluate>
         double exchange(size_t out, size_t in);
         const ContrastModel *m_;
-        std::vector<float> y_;
+        std::vector<std::vector<float>> y_;  // per chunk, [f][g][lag]
     };
 
 private:
+    void correlate(const std::vector<std::vector<std::vector<float>>> &r,
+                   const std::vector<std::vector<std::vector<float>>> &h, size_t first_row);
     size_t sites_, rows_, foci_, lags_;
-    std::vector<float> corr_;  // [site][f][g][lag]
+    size_t keep_ = 0, nfft_ = 0;
+    long first_lag_ = 0;
+    // The rows in chunks, as they were added (the foci and the plan's probes
+    // first): adding rows appends a chunk, nothing is copied.
+    struct Chunk {
+        size_t first_row = 0, rows = 0;
+        std::vector<float> corr;  // [site][f][g - first_row][lag]
+    };
+    std::vector<Chunk> chunks_;
+    std::vector<char> judged_; // [f][g]: row g counts against focus f
 };
 
 struct SearchOptions {

@@ -16,7 +16,6 @@ namespace calib::pipeline {
 
 namespace {
 
-double dist(Point a, Point b) { return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m); }
 
 // Probe points where a lone focus must stay above the field: a 3 x 3 grid
 // over the active area, without the points within half a wavelength of a

@@ -34,6 +34,10 @@ struct ExcitersSpec {
     std::optional<double> site_spacing_m;  // candidate lattice; default lambda/8 at the pulse centre
     unsigned restarts = 8;
     unsigned iterations = 1500;
+    // Rounds of the search by the verdict (placement_verdict.h): each adds the
+    // ghosts of the best placement so far to the contrast model and searches
+    // again. 0: the contrast model's choice is kept (no search by the verdict).
+    unsigned verdict_rounds = 8;
     // The contrast the search maximizes: over all times (the seed's Fig. 8
     // criterion) or at the focus instant only (its Fig. 4 snapshots).
     bool contrast_at_focus_instant = false;

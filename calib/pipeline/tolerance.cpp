@@ -346,9 +346,9 @@ CaseFigures figures_of(const Verification &v, const std::vector<std::vector<int1
         c.max_peak_m = std::max(c.max_peak_m, m.peak_m);
         c.max_offset_m = std::max(c.max_offset_m, m.perceived_offset_distance_m);
         c.max_lead_time_s = std::max(c.max_lead_time_s, m.lead_time_s);
-        const bool holds = m.crosses_threshold && m.others_below_threshold;
-        c.fig8_holds += holds;
-        c.fig8_fails += !holds;
+        const bool holds = m.passes();  // the verdict (calibrate.h)
+        c.foci_passing += holds;
+        c.foci_failing += !holds;
         c.area_crossings += m.whole_area && !m.whole_area_below_threshold;
         const double e = f < signals.size() ? drive_energy_n2s(signals[f], force_full_scale_n, rate_hz) : 0.0;
         if (e > 0)
@@ -364,7 +364,7 @@ CaseFigures worst_of(const std::vector<CaseFigures> &all)
     CaseFigures w;
     if (all.empty())
         return w;
-    w.fig8_holds = all.front().fig8_holds;
+    w.foci_passing = all.front().foci_passing;
     w.peak_per_energy = all.front().peak_per_energy;
     for (const CaseFigures &c : all) {
         if (c.worst_whole_area_contrast_db < w.worst_whole_area_contrast_db) {
@@ -375,8 +375,8 @@ CaseFigures worst_of(const std::vector<CaseFigures> &all)
         w.max_peak_m = std::max(w.max_peak_m, c.max_peak_m);
         w.max_offset_m = std::max(w.max_offset_m, c.max_offset_m);
         w.max_lead_time_s = std::max(w.max_lead_time_s, c.max_lead_time_s);
-        w.fig8_holds = std::min(w.fig8_holds, c.fig8_holds);
-        w.fig8_fails = std::max(w.fig8_fails, c.fig8_fails);
+        w.foci_passing = std::min(w.foci_passing, c.foci_passing);
+        w.foci_failing = std::max(w.foci_failing, c.foci_failing);
         w.area_crossings = std::max(w.area_crossings, c.area_crossings);
         w.peak_per_energy = std::min(w.peak_per_energy, c.peak_per_energy);
     }

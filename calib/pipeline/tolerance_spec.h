@@ -70,8 +70,8 @@ struct CaseFigures {
     double min_peak_m = INFINITY, max_peak_m = 0;
     double max_offset_m = 0;          // perceived offset distance, worst focus
     double max_lead_time_s = 0;
-    unsigned fig8_holds = 0;          // foci that cross the threshold while every other focus stays below it
-    unsigned fig8_fails = 0;
+    unsigned foci_passing = 0;        // foci that pass the verdict (calibrate.h FocusMetrics::passes)
+    unsigned foci_failing = 0;
     unsigned area_crossings = 0;      // foci whose field beyond lambda/2 reaches the threshold somewhere
     double peak_per_energy = 0;       // mean over foci of peak / sqrt(drive energy) (m / (N s^0.5))
 };

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -69,6 +70,41 @@ std::vector<float> upsample_lanczos(const std::vector<float> &f, int cols, int r
 double db(double a, double b) { return 20 * std::log10(a / std::max(b, 1e-300)); }
 
 }  // namespace
+
+std::string FocusMetrics::failure(double threshold_m) const
+{
+    char b[200];
+    std::string why;
+    auto add = [&](const std::string &part) { why += (why.empty() ? "" : "; ") + part; };
+    if (!crosses_threshold) {
+        std::snprintf(b, sizeof b, "peak %.2f um below the %.2f um threshold", peak_m * 1e6, threshold_m * 1e6);
+        add(b);
+    }
+    if (whole_area && !whole_area_below_threshold) {
+        std::snprintf(b, sizeof b, "ghost %.2f um at (%.1f, %.1f) mm, %+.1f dB over the threshold", max_whole_area_m * 1e6,
+                      whole_area_max_at.x_m * 1e3, whole_area_max_at.y_m * 1e3, db(max_whole_area_m, threshold_m));
+        add(b);
+    }
+    if (!others_below_threshold) {
+        std::snprintf(b, sizeof b, "another focus reaches %.2f um, %+.1f dB over the threshold", max_other_foci_m * 1e6,
+                      db(max_other_foci_m, threshold_m));
+        add(b);
+    }
+    return why;
+}
+
+VerdictSummary summarize_verdict(const std::vector<FocusMetrics> &foci)
+{
+    VerdictSummary s;
+    s.total = foci.size();
+    auto margin = [](const FocusMetrics &m) { return m.whole_area ? m.whole_area_contrast_db : m.other_foci_contrast_db; };
+    for (std::size_t f = 0; f < foci.size(); f++) {
+        s.passing += foci[f].passes();
+        if (margin(foci[f]) < margin(foci[s.worst]))
+            s.worst = f;
+    }
+    return s;
+}
 
 bool is_other_focus(const CalibrationInput &in, std::size_t f, std::size_t g, double lambda_half_m)
 {
@@ -335,10 +371,7 @@ Verification verify_signals_with(const CalibrationInput &in, const TransferMatri
     }
     failure.rethrow();
     if (L > 0 && K > 0) {
-        size_t worst = 0;
-        for (size_t f = 1; f < K; f++)
-            if (v.foci[f].whole_area_contrast_db < v.foci[worst].whole_area_contrast_db)
-                worst = f;
+        const size_t worst = summarize_verdict(v.foci).worst;
         v.worst_focus = worst;
         v.frame_rate_hz = R;
         std::vector<size_t> lattice_rows(L);

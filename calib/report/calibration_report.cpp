@@ -3,6 +3,7 @@
 #include "io/atomic_file.h"
 #include "physics/dispersion.h"
 #include "pipeline/verification.h"
+#include "report/canvas.h"
 #include "report/drive_report.h"
 #include "report/field_image.h"
 #include "report/modes_section.h"
@@ -69,6 +70,10 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
             t.insert("max_elsewhere_m", m.max_elsewhere_m);
             t.insert("field_contrast_db", m.field_contrast_db);
             t.insert("others_below_threshold", m.others_below_threshold);
+            t.insert("passes", m.passes());
+            t.insert("verdict_scope", m.verdict_scope());
+            if (!m.passes())
+                t.insert("failure", m.failure(in.calibration.threshold_m));
             if (m.whole_area) {
                 t.insert("whole_area_contrast_db", m.whole_area_contrast_db);
                 t.insert("max_whole_area_m", m.max_whole_area_m);
@@ -100,6 +105,14 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                      {"foci", std::move(foci)},
                      {"all_cross_threshold", all_cross}};
     if (c.mode == "table") {
+        // The verdict (calibrate.h FocusMetrics::passes): what the exit status says.
+        const pipeline::VerdictSummary vs = pipeline::summarize_verdict(c.verification->foci);
+        if (vs.total > 0)
+            root.insert("verdict", toml::table{{"scope", c.verification->foci[vs.worst].verdict_scope()},
+                                               {"foci_passing", static_cast<int64_t>(vs.passing)},
+                                               {"foci", static_cast<int64_t>(vs.total)},
+                                               {"all_pass", vs.all_pass()},
+                                               {"worst_focus_id", static_cast<int64_t>(c.verification->foci[vs.worst].id)}});
         root.insert("all_others_below_threshold", all_below);
         root.insert("min_other_foci_contrast_db", min_contrast);
         if (std::isfinite(min_whole)) {
@@ -120,12 +133,35 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                                 {"simulations", static_cast<int64_t>(p.simulations)},
                                 {"subset_foci", static_cast<int64_t>(p.focus_subset.size())},
                                 {"subset_cover_m", p.subset_cover_m}});
+        if (!p.judged.empty()) {  // the search by the verdict (pipeline/placement_verdict.h)
+            toml::array judged;
+            for (const pipeline::PlacementReport::Judged &j : p.judged) {
+                toml::array sites;
+                for (std::size_t i : j.chosen)
+                    sites.push_back(static_cast<int64_t>(i));
+                judged.push_back(toml::table{{"sites", std::move(sites)},
+                                             {"foci_passing", static_cast<int64_t>(j.passing)},
+                                             {"foci_passing_at_target", static_cast<int64_t>(j.passing_at_target)},
+                                             {"worst_whole_area_contrast_db", j.worst_whole_area_db},
+                                             {"proxy_contrast_db", j.proxy_db},
+                                             {"ghost_probes_seen", static_cast<int64_t>(j.probes)},
+                                             {"regular", j.regular},
+                                             {"chosen", j.chosen == p.chosen}});
+            }
+            toml::table &pt = *root["placement"].as_table();
+            pt.insert("judged", std::move(judged));
+            pt.insert("ghost_probes", points_array(p.ghost_probes));
+            pt.insert("proxy_agreements", static_cast<int64_t>(p.proxy_agreements));
+            pt.insert("proxy_pairs", static_cast<int64_t>(p.proxy_pairs));
+            pt.insert("verdict_s", p.verdict_s);
+        }
         const pipeline::StageTimes &s = c.result->times;
         root.insert("times_s", toml::table{{"simulation", s.simulation_s},
                                            {"search", s.search_s},
                                            {"transfer", s.transfer_s},
                                            {"signals", s.signals_s},
                                            {"verification", s.verification_s},
+                                           {"verdict", s.verdict_s},
                                            {"sound", s.sound_s},
                                            {"total", c.total_s}});
     }
@@ -338,6 +374,13 @@ void write_html_report(const std::string &dir, const ReportContext &c)
           << " s, verification " << num(c.result->times.verification_s, 2) << " s), peak memory "
           << num(c.peak_rss_mb, 3) << " MB.";
     h << "</p>";
+    if (c.mode == "table" && !v.foci.empty()) {  // the verdict first: what the exit status says
+        const pipeline::VerdictSummary vs = pipeline::summarize_verdict(v.foci);
+        h << "<p class='" << (vs.all_pass() ? "ok" : "bad") << "'>Verdict (" << v.foci[vs.worst].verdict_scope()
+          << ", all times): " << vs.passing << " of " << vs.total << " foci pass: each crosses the threshold and "
+          << "nothing farther than lambda/2 from it reaches the threshold."
+          << (vs.all_pass() ? "" : " The failing foci say why in the metrics table below.") << "</p>";
+    }
 
     h << "<h2>Layout</h2><figure>" << layout_svg(c)
       << "<figcaption>Plate, active area (green dashes), candidate sites (grey dots), the regular symmetric pattern "
@@ -365,7 +408,7 @@ void write_html_report(const std::string &dir, const ReportContext &c)
         h << "<th>max at other foci (um)</th><th>contrast over the other foci (dB)</th><th>spot diameter (mm)</th>"
              "<th>lambda/2 (mm)</th><th>field contrast at the focus instant (dB)</th>"
              "<th>whole-area contrast, all times (dB)</th><th>lead time (ms)</th><th>perceived offset (mm)</th>"
-             "<th>crosses threshold</th><th>others below</th><th>whole area below</th>";
+             "<th>crosses threshold</th><th>others below</th><th>whole area below</th><th>verdict</th>";
     else
         h << "<th>peak time (ms)</th><th>crosses threshold</th>";
     h << "</tr>";
@@ -380,7 +423,9 @@ void write_html_report(const std::string &dir, const ReportContext &c)
               << "</td><td>" << num(m.lead_time_s * 1e3) << "</td><td>"
               << (m.whole_area ? num(m.perceived_offset_distance_m * 1e3) : "-") << "</td>"
               << yes(m.crosses_threshold) << yes(m.others_below_threshold)
-              << (m.whole_area ? yes(m.whole_area_below_threshold) : std::string("<td>-</td>"));
+              << (m.whole_area ? yes(m.whole_area_below_threshold) : std::string("<td>-</td>"))
+              << (m.passes() ? std::string("<td class='ok'>pass</td>")
+                             : "<td class='bad'>fails: " + canvas::xml_escape(m.failure(c.input->calibration.threshold_m)) + "</td>");
         else
             h << "<td>" << num(m.peak_time_s * 1e3) << "</td>" << yes(m.crosses_threshold);
         h << "</tr>";

@@ -157,7 +157,7 @@ std::string contrast_map_html(const ReportContext &c)
     s.threshold = need;
     size_t crossing = 0;
     for (const FocusMetrics &m : v.foci)
-        if (!m.whole_area_below_threshold) {
+        if (!m.passes()) {
             crossing++;
             s.markers.push_back({m.at.x_m, m.at.y_m, "", Marker::Kind::point});
         }

@@ -20,8 +20,8 @@ toml::table figures_json(const CaseFigures &c)
                        {"max_peak_m", c.max_peak_m},
                        {"max_perceived_offset_m", c.max_offset_m},
                        {"max_lead_time_s", c.max_lead_time_s},
-                       {"fig8_holds", static_cast<int64_t>(c.fig8_holds)},
-                       {"fig8_fails", static_cast<int64_t>(c.fig8_fails)},
+                       {"foci_passing", static_cast<int64_t>(c.foci_passing)},
+                       {"foci_failing", static_cast<int64_t>(c.foci_failing)},
                        {"area_crossings", static_cast<int64_t>(c.area_crossings)},
                        {"peak_per_drive_energy", c.peak_per_energy}};
 }
@@ -29,8 +29,8 @@ toml::table figures_json(const CaseFigures &c)
 std::string line(const std::string &name, const CaseFigures &c, std::size_t foci)
 {
     return (name + std::string(34, ' ')).substr(0, std::max<std::size_t>(34, name.size())) + fmt(" %7.2f dB", c.worst_whole_area_contrast_db) + fmt("  peak %5.2f", c.min_peak_m * 1e6) +
-           fmt("-%5.2f um", c.max_peak_m * 1e6) + fmt("  offset %5.1f mm", c.max_offset_m * 1e3) + "  Fig. 8 holds " +
-           std::to_string(c.fig8_holds) + "/" + std::to_string(foci) + ", area crosses at " +
+           fmt("-%5.2f um", c.max_peak_m * 1e6) + fmt("  offset %5.1f mm", c.max_offset_m * 1e3) + "  verdict: pass " +
+           std::to_string(c.foci_passing) + "/" + std::to_string(foci) + ", area crosses at " +
            std::to_string(c.area_crossings) + "\n";
 }
 
@@ -42,7 +42,7 @@ std::string html_row(const std::string &name, const CaseFigures &c, std::size_t 
       << fmt("%.2f", c.worst_whole_area_contrast_db) << " (" << c.worst_focus_id << ")</td><td>"
       << fmt("%.2f", c.min_peak_m * 1e6) << " - " << fmt("%.2f", c.max_peak_m * 1e6) << "</td><td>"
       << fmt("%.1f", c.max_offset_m * 1e3) << "</td><td>" << fmt("%.1f", c.max_lead_time_s * 1e3) << "</td><td class='"
-      << (c.fig8_holds == foci ? "ok" : "bad") << "'>" << c.fig8_holds << " / " << foci << "</td><td>"
+      << (c.foci_passing == foci ? "ok" : "bad") << "'>" << c.foci_passing << " / " << foci << "</td><td>"
       << c.area_crossings << "</td></tr>";
     return h.str();
 }
@@ -86,7 +86,7 @@ toml::table tolerance_json(const pipeline::ToleranceReport &r)
 std::string tolerance_text(const pipeline::ToleranceReport &r, std::size_t foci)
 {
     std::string s = "tolerance box: " + std::to_string(r.cases.size()) + " plates verified in " +
-                    fmt("%.1f s", r.seconds) + " (worst-focus whole-area contrast, peak, offset, Fig. 8)\n";
+                    fmt("%.1f s", r.seconds) + " (worst-focus whole-area contrast, peak, offset, verdict)\n";
     s += line("  nominal plate", r.nominal, foci);
     s += line("  worst over the box", r.worst, foci);
     if (r.compensated_worst)
@@ -119,7 +119,7 @@ std::string tolerance_html(const pipeline::ToleranceReport &r, std::size_t foci)
         h << " Speed compensation: the device plays each panel at its speed ratio (the panel's kappa over the "
              "nominal plate's; hapticd [panel]); the rows marked <i>compensated</i> are the table stretched by it.";
     h << "</p><table><tr><th>plate</th><th>worst-focus whole-area contrast (dB)</th><th>peak (um)</th>"
-         "<th>perceived offset (mm)</th><th>lead (ms)</th><th>Fig. 8 holds</th><th>area crosses at</th></tr>";
+         "<th>perceived offset (mm)</th><th>lead (ms)</th><th>foci passing the verdict</th><th>area crosses at</th></tr>";
     h << html_row("nominal", r.nominal, foci, false);
     if (r.nominal_design)
         h << html_row("nominal, plain design", *r.nominal_design, foci, false);

@@ -121,6 +121,7 @@ pipeline::ExcitersSpec parse_exciters(const Fields &f)
     }
     e.restarts = count_in(f, "restarts", e.restarts, 1, 1000);
     e.iterations = count_in(f, "iterations", e.iterations, 0, 1000000);
+    e.verdict_rounds = count_in(f, "verdict_rounds", e.verdict_rounds, 0, 50);
     if (f.has("placement_foci"))
         e.placement_foci = count_in(f, "placement_foci", 0, 2, 1024);
     if (f.has("positions_m")) {

@@ -110,7 +110,7 @@ CaseResult run_case(const Sweep &sweep, const Case &c, int rank)
             r.worst_contrast_db = std::min(r.worst_contrast_db, contrast);
             r.max_spot_m = std::max(r.max_spot_m, m.spot_diameter_m);
             r.max_lead_time_s = std::max(r.max_lead_time_s, m.peak_time_s);
-            r.foci_meeting_criterion += m.crosses_threshold && m.others_below_threshold;
+            r.foci_meeting_criterion += m.passes();  // the verdict (calibrate.h)
             const double peak = res.full_scale_peak_m.at(f);
             r.min_peak_m = std::min(r.min_peak_m, peak);
             const double e = drive_energy(res.signals.at(f), in.exciters.force_full_scale_n);

@@ -4,6 +4,7 @@
 #include "model/error_model.h"
 #include "pipeline/calibrate.h"
 #include "pipeline/calibrate_stages.h"
+#include "pipeline/placement_verdict.h"
 #include "pipeline/drive_figures.h"
 #include "pipeline/lead_time.h"
 #include "pipeline/multitouch.h"
@@ -64,7 +65,7 @@ void run_case(const pipeline::CalibrationInput &base, const pipeline::TransferMa
         row.min_peak_m = std::min(row.min_peak_m, m.peak_m);
         row.margin_m = std::min(row.margin_m, in.calibration.threshold_m - m.max_whole_area_m);
         row.all_cross &= m.crosses_threshold;
-        row.all_alone &= m.crosses_threshold && m.whole_area_below_threshold && m.others_below_threshold;
+        row.all_alone &= m.passes();  // the verdict (calibrate.h)
         const pipeline::DriveFigures d = pipeline::drive_figures(in, r.signals[f].samples, unsigned(exciters.size()),
                                                                  in.calibration.output_rate_hz, m.peak_m);
         row.min_peak_per_root_energy = std::min(row.min_peak_per_root_energy, d.peak_per_root_energy);
@@ -155,10 +156,8 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
 
     // The scene's placement, once.
     auto t0 = Clock::now();
-    pipeline::CalibrationResult placed;
     say("placement (the scene's search)");
-    pipeline::place_exciters(in, pipeline::plan(in), {}, placed);
-    res.exciters = placed.exciters;
+    res.exciters = pipeline::placed_exciters(in);
     res.placement_s = since(t0);
     res.crossing_s = pipeline::crossing_time_s(in, res.exciters);
     res.ceiling = pipeline::ideal_focus_ceiling(

@@ -35,11 +35,11 @@ void csv_figures(std::ostringstream &o, const CaseFigures &c)
 {
     o << ',' << c.worst_whole_area_contrast_db << ',' << c.worst_focus_id << ',' << c.min_peak_m * 1e6 << ','
       << c.max_peak_m * 1e6 << ',' << c.max_offset_m * 1e3 << ',' << c.max_lead_time_s * 1e3 << ','
-      << c.fig8_holds << ',' << c.fig8_fails << ',' << c.area_crossings << ',' << c.peak_per_energy;
+      << c.foci_passing << ',' << c.foci_failing << ',' << c.area_crossings << ',' << c.peak_per_energy;
 }
 
 const char *figure_columns = "worst_whole_area_contrast_db,worst_focus,min_peak_um,max_peak_um,max_offset_mm,"
-                             "max_lead_ms,fig8_holds,fig8_fails,area_crossings,peak_per_energy_m_per_n_sqrt_s";
+                             "max_lead_ms,foci_passing,foci_failing,area_crossings,peak_per_energy_m_per_n_sqrt_s";
 
 // One tornado row per tolerance: the change of the worst-focus whole-area
 // contrast at each end of its range, against the nominal plate.
@@ -63,7 +63,7 @@ std::vector<Row> tornado_rows(const RobustnessResult &r)
         Row &row = rows[it->second];
         const double d = c.table.worst_whole_area_contrast_db - r.report.nominal.worst_whole_area_contrast_db;
         row.ends.push_back({c.perturbation.name, d});
-        row.fails.push_back(c.table.fig8_fails);
+        row.fails.push_back(c.table.foci_failing);
         row.low = std::min(row.low, d);
         row.high = std::max(row.high, d);
     }
@@ -90,7 +90,7 @@ void draw_tornado(cairo_t *cr, const std::vector<Row> &rows, const RobustnessRes
     cv::text(cr, w / 2.0, 22, "Which tolerance costs most: " + r.scene_name, 16, cv::Anchor::middle);
     cv::text(cr, w / 2.0, 44,
              "nominal worst-focus whole-area contrast " + fmt("%.2f dB", r.report.nominal.worst_whole_area_contrast_db) +
-                 ", Fig. 8 fails " + std::to_string(r.report.nominal.fig8_fails),
+                 ", verdict fails at " + std::to_string(r.report.nominal.foci_failing),
              12, cv::Anchor::middle);
     const double bottom = top + row_h * double(rows.size());
     cairo_set_line_width(cr, 1);
@@ -133,7 +133,7 @@ std::string figures_md(const std::string &name, const CaseFigures &c, std::size_
     return "| " + name + " | " + fmt("%.2f", c.worst_whole_area_contrast_db) + " (focus " +
            std::to_string(c.worst_focus_id) + ") | " + fmt("%.2f", c.min_peak_m * 1e6) + " - " +
            fmt("%.2f", c.max_peak_m * 1e6) + " | " + fmt("%.1f", c.max_offset_m * 1e3) + " | " +
-           fmt("%.1f", c.max_lead_time_s * 1e3) + " | " + std::to_string(c.fig8_holds) + " / " +
+           fmt("%.1f", c.max_lead_time_s * 1e3) + " | " + std::to_string(c.foci_passing) + " / " +
            std::to_string(foci) + " | " + std::to_string(c.area_crossings) + " |\n";
 }
 
@@ -218,7 +218,7 @@ std::string write_robustness_report(const RobustnessResult &r, const std::string
        << " at dE/E/dT = " << fmt("%g", r.box.youngs_per_kelvin) << " /K, " << b.random_cases
        << " random combinations (seed " << b.seed << ").\n\n";
     md << "| plate | worst-focus whole-area contrast (dB) | peak (um) | perceived offset (mm) | lead (ms) | "
-          "Fig. 8 holds | foci whose area beyond lambda/2 crosses |\n|---|---|---|---|---|---|---|\n";
+          "foci passing the verdict | foci whose area beyond lambda/2 crosses |\n|---|---|---|---|---|---|---|\n";
     md << figures_md("nominal", rep.nominal, r.foci);
     if (rep.nominal_design)
         md << figures_md("nominal, plain design", *rep.nominal_design, r.foci);
@@ -246,7 +246,7 @@ std::string write_robustness_report(const RobustnessResult &r, const std::string
         md << "- " << x.factor << ":";
         for (std::size_t e = 0; e < x.ends.size(); e++)
             md << (e ? "," : "") << " " << x.ends[e].first << fmt(" %+.2f dB", x.ends[e].second) << " ("
-               << x.fails[e] << " Fig. 8 fails)";
+               << x.fails[e] << " failing the verdict)";
         md << "\n";
     }
     std::size_t rescaled = 0;

@@ -28,8 +28,6 @@ using scene_text::replace;
 
 namespace {
 
-double dist(Point a, Point b) { return std::hypot(a.x_m - b.x_m, a.y_m - b.y_m); }
-
 std::vector<Point> square_grid(int n, double pitch)
 {
     std::vector<Point> v;
