@@ -150,7 +150,11 @@ int dry_run(const std::string &path, const LimitArgs &l)
       << " phase velocity at f_max vs exact A0\n";
     o << "  placement foci    " << plan.foci << " of " << in.foci.points.size() << " weighed by the search (cap "
       << plan.placement_focus_cap << ", every focus within " << fmt("%.0f mm", plan.subset_cover_m * 1e3)
-      << " of one), " << plan.emitters.size() << " placement simulations\n";
+      << " of one), " << plan.emitters.size() << " placement simulations"
+      << (pr.verdict_probes > 0 ? " + up to " + std::to_string(std::lround(pr.verdict_probes)) +
+                                      " ghost probes (the search by the verdict, docs/verdict.md)"
+                                : std::string())
+      << "\n";
     o << "  predicted time    " << fmt("%.1f s", pr.seconds) << " (" << plan.emitters.size() << " simulations x "
       << plan.sites.size() << " sites, " << cost.threads << " threads, "
       << fmt("%.3g ms", cost.seconds_per_step_simulate * 1e3) << " per step measured now)\n";

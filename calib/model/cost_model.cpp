@@ -144,6 +144,7 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
         probes = std::min(double(in.exciters.verdict_rounds * pipeline::ghosts_per_round),
                           std::max(0.0, pipeline::model_budget_bytes / row_bytes - emitters));
         judged = 2 + in.exciters.verdict_rounds;
+        p.verdict_probes = probes;
         p.recordings_mb += (probes * row_bytes + 2 * probes * sites * len * 4) / mb + 2 * plan.transfer_bytes / mb;
     }
     p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;

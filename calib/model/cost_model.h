@@ -50,6 +50,7 @@ struct Prediction {
     double fields_mb = 0;          // the running simulations' fields (three levels each)
     double traces_mb = 0;          // the running simulations' traces
     double recordings_mb = 0;      // the stored recordings (pulse and impulse responses)
+    double verdict_probes = 0;     // ghost probes the search by the verdict may add (placement_verdict.h)
 };
 // Memory needs no timing: `cost` may be null, then seconds stay 0.
 Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,
