@@ -129,10 +129,11 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
     // The verification keeps, per focus, the displacement at every focus
     // (double) over the drive and its tail: K^2 traces, the term that grows
     // fastest with a dense grid.
+    const double verification_mb = K * K * 8 *
+                                   std::ceil((in.calibration.truncate_fraction * in.calibration.window_s +
+                                              in.calibration.verify_tail_s) * plan.search_rate_hz) / mb;
     if (plan.transfer)
-        p.traces_mb += K * K * 8 *
-                       std::ceil((in.calibration.truncate_fraction * in.calibration.window_s +
-                                  in.calibration.verify_tail_s) * plan.search_rate_hz) / mb;
+        p.traces_mb += verification_mb;
     // The search by the verdict (pipeline/placement_verdict.h): its probe
     // rows fill the contrast model up to its budget, each probe's recordings
     // are kept like an emitter's, and every placement judged keeps an H.
@@ -145,7 +146,12 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
                           std::max(0.0, pipeline::model_budget_bytes / row_bytes - emitters));
         judged = 2 + in.exciters.verdict_rounds;
         p.verdict_probes = probes;
-        p.recordings_mb += (probes * row_bytes + 2 * probes * sites * len * 4) / mb + 2 * plan.transfer_bytes / mb;
+        p.traces_mb += 2 * verification_mb;  // the best, the last searched and the current judgement
+        // The transfer cache keeps a channel block per site judged (at most
+        // every exciter of every placement judged), and three H are alive at once.
+        const double cached_sites = std::min(sites, judged * double(in.exciters.count));
+        p.recordings_mb += (probes * row_bytes + 2 * probes * sites * len * 4) / mb +
+                           (cached_sites / double(in.exciters.count) + 3) * plan.transfer_bytes / mb;
     }
     p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;
     if (!cost)
