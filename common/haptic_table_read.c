@@ -249,7 +249,9 @@ int haptic_table_open(const char *path, haptic_table *out, haptic_table_error *e
     if (!path || !out)
         return fail(err, HAPTIC_TABLE_EINVAL, 0, "NULL path or table");
     memset(out, 0, sizeof *out);
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    /* O_NONBLOCK: a FIFO (or a device) at the path must not block the open;
+     * it is refused below as not a regular file. A regular file reads as ever. */
+    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
     if (fd < 0)
         return fail(err, HAPTIC_TABLE_EIO, 0, "cannot open: %s", strerror(errno));
     struct stat st;

@@ -9,6 +9,7 @@
 #include <ini.h>
 
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
@@ -16,6 +17,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 struct parse_ctx {
     struct hd_board *b;
@@ -489,9 +492,25 @@ int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX])
     }
     snprintf(b->path, sizeof b->path, "%s", path);
     set_dir(&c, path);
-    FILE *f = fopen(path, "r");
+    /* Opened without blocking (a FIFO at the path would block fopen) and
+     * refused unless it is a regular file: a directory, a FIFO or a device
+     * such as /dev/zero is no board file, and reading one could not end. */
+    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    if (fd < 0) {
+        int e = errno;
+        snprintf(err, HD_ERR_MAX, "%s: cannot open board file: %s", path, strerror(e));
+        return -e;
+    }
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        snprintf(err, HD_ERR_MAX, "%s: not a regular file (a board file is a text file)", path);
+        return -EINVAL;
+    }
+    FILE *f = fdopen(fd, "r");
     if (!f) {
         int e = errno;
+        close(fd);
         snprintf(err, HD_ERR_MAX, "%s: cannot open board file: %s", path, strerror(e));
         return -e;
     }

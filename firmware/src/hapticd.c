@@ -295,13 +295,18 @@ static int parse_args(int argc, char **argv, struct options *o)
         case 'L': o->latency_report = optarg; break;
         case 'd': o->drop = 1; break;
         case 'S': o->use_syslog = 1; break;
-        case 'p':
-            o->rt_priority = (int)strtol(optarg, &end, 10);
-            if (*end || o->rt_priority < 0 || o->rt_priority > 99) {
+        case 'p': {
+            /* Range-checked in strtol's full width before narrowing:
+             * 4294967376 must not become 80. */
+            errno = 0;
+            long v = strtol(optarg, &end, 10);
+            if (end == optarg || *end || errno || v < 0 || v > 99) {
                 fprintf(stderr, "hapticd: --rt-priority: '%s' is not in 0..99\n", optarg);
                 return 2;
             }
+            o->rt_priority = (int)v;
             break;
+        }
         case 'f': {
             unsigned long v = strtoul(optarg, &end, 10);
             if (*end || v > 100000000ul) {

@@ -239,6 +239,28 @@ static void open_reports_missing_file(void **state)
     assert_null(t.data);
 }
 
+/* A FIFO at the table path (a SIGHUP after someone made one there) and a
+ * device: refused at once as not regular files, never blocked on. Before the
+ * open was non-blocking, the FIFO blocked in open() until a writer came; the
+ * alarm turns such a hang into a failure here instead of a ctest timeout. */
+static void open_refuses_a_fifo_and_a_device_without_blocking(void **state)
+{
+    (void)state;
+    char fifo[300];
+    snprintf(fifo, sizeof fifo, "%s/t.fifo", tmpdir);
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    haptic_table t;
+    haptic_table_error err;
+    alarm(10);
+    assert_int_equal(haptic_table_open(fifo, &t, &err), HAPTIC_TABLE_EIO);
+    assert_non_null(strstr(err.message, "not a regular file"));
+    assert_null(t.data);
+    assert_int_equal(haptic_table_open("/dev/zero", &t, &err), HAPTIC_TABLE_EIO);
+    assert_non_null(strstr(err.message, "not a regular file"));
+    alarm(0);
+    assert_int_equal(unlink(fifo), 0);
+}
+
 static void writer_refuses_bad_specs(void **state)
 {
     (void)state;
@@ -346,6 +368,7 @@ int main(void)
         cmocka_unit_test(header_follows_the_documented_layout),
         cmocka_unit_test(writer_replaces_atomically_and_fails_cleanly),
         cmocka_unit_test(open_reports_missing_file),
+        cmocka_unit_test(open_refuses_a_fifo_and_a_device_without_blocking),
         cmocka_unit_test(writer_refuses_bad_specs),
         cmocka_unit_test(accessors_check_their_indices),
         cmocka_unit_test(panel_section_round_trips_and_is_optional),

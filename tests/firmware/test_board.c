@@ -1,4 +1,5 @@
 /* board.ini: every key, and every bad value gives a one-line error naming the file and the key. */
+#define _POSIX_C_SOURCE 200809L /* mkdtemp, mkfifo */
 #include "board.h"
 
 #include <errno.h>
@@ -7,7 +8,10 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <cmocka.h>
 
 static const char *full =
@@ -241,6 +245,33 @@ static void missing_file(void **state)
     assert_null(strchr(err, '\n'));
 }
 
+/* A board path that is not a regular file is refused in one line, at once:
+ * a FIFO (fopen would block until a writer came; the alarm makes a hang a
+ * failure), a directory (it used to report a missing key), a device that
+ * never ends (/dev/zero spun forever). */
+static void refuses_what_is_not_a_regular_file(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/hd-board-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char fifo[64];
+    snprintf(fifo, sizeof fifo, "%s/board.ini", dir);
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    const char *paths[] = {fifo, dir, "/dev/zero"};
+    alarm(10);
+    for (size_t i = 0; i < sizeof paths / sizeof paths[0]; i++) {
+        struct hd_board b;
+        char err[HD_ERR_MAX] = "";
+        assert_int_equal(hd_board_load(paths[i], &b, err), -EINVAL);
+        assert_non_null(strstr(err, paths[i]));
+        assert_non_null(strstr(err, "not a regular file"));
+        assert_null(strchr(err, '\n'));
+    }
+    alarm(0);
+    assert_int_equal(unlink(fifo), 0);
+    assert_int_equal(rmdir(dir), 0);
+}
+
 static void shipped_boards_parse(void **state)
 {
     (void)state;
@@ -319,7 +350,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(every_key), cmocka_unit_test(defaults),     cmocka_unit_test(bad_values),
-        cmocka_unit_test(missing_file), cmocka_unit_test(uint_list), cmocka_unit_test(shipped_boards_parse),
+        cmocka_unit_test(missing_file), cmocka_unit_test(refuses_what_is_not_a_regular_file), cmocka_unit_test(uint_list), cmocka_unit_test(shipped_boards_parse),
         cmocka_unit_test(touch_section),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

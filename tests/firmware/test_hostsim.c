@@ -361,6 +361,22 @@ static void bad_inputs_fail_cleanly(void **state)
     t.buf[t.size - 10] ^= 1;
     fw_table_write(&t, f.table);
     assert_int_equal(hs_wait_exit(hs_spawn(argv3, f.err)), 0);
+    /* --rt-priority is range-checked in its full width: 2^32 + 80 used to be
+     * narrowed to 80 and accepted. */
+    char *argv4[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", f.table, "--rt-priority", "4294967376", NULL};
+    assert_int_equal(hs_wait_exit(hs_spawn(argv4, f.err)), 2);
+    assert_true(hs_file_contains(f.err, "--rt-priority: '4294967376' is not in 0..99"));
+    char *argv5[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", f.table, "--rt-priority", "", NULL};
+    assert_int_equal(hs_wait_exit(hs_spawn(argv5, f.err)), 2);
+    /* A FIFO as the table: refused at once, not blocked on (the suite's
+     * timeout would end a hang). */
+    char fifo[400];
+    snprintf(fifo, sizeof fifo, "%s.fifo", f.table);
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    char *argv6[] = {"hapticd", "--check", fifo, NULL};
+    assert_int_equal(hs_wait_exit(hs_spawn(argv6, f.err)), 1);
+    assert_true(hs_file_contains(f.err, "not a regular file"));
+    assert_int_equal(unlink(fifo), 0);
     fw_table_free(&t);
 }
 
