@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "calibgen_run.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -24,18 +26,8 @@ namespace {
 
 const std::string small_scene = std::string(HAPTIC_SOURCE_DIR) + "/scenes/test-small.toml";
 
-std::string read_text(const fs::path &p)
-{
-    std::ifstream f(p, std::ios::binary);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-}
-
-struct Outcome {
-    int exit_code = -1;
-    std::string err;
-};
+using calibgen_run::Outcome;
+using calibgen_run::read_text;
 
 class ModesCli : public ::testing::Test {
 protected:
@@ -48,18 +40,7 @@ protected:
     void TearDown() override { fs::remove_all(dir_); }
 
     Outcome calibgen(const std::string &args) const { return run("modes " + args); }
-    Outcome run(const std::string &command_and_args) const
-    {
-        const fs::path err = dir_ / "stderr.txt";
-        const std::string cmd =
-            "timeout -s KILL 120 \"" HAPTIC_CALIBGEN "\" " + command_and_args + " 2> \"" + err.string() + "\"";
-        const int status = std::system(cmd.c_str());
-        Outcome r;
-        if (WIFEXITED(status))
-            r.exit_code = WEXITSTATUS(status);
-        r.err = read_text(err);
-        return r;
-    }
+    Outcome run(const std::string &command_and_args) const { return calibgen_run::run(dir_, command_and_args); }
 
     // A refusal: non-zero exit, one line naming `what`, no CSV.
     void expect_refused(const std::string &args, const std::string &what) const

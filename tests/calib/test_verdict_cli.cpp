@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "calibgen_run.h"
 #include "verdict_ghost.h"
 
 namespace fs = std::filesystem;
@@ -37,13 +38,8 @@ using namespace calib;
 
 namespace {
 
-std::string read_text(const fs::path &p)
-{
-    std::ifstream f(p, std::ios::binary);
-    std::stringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-}
+using calibgen_run::Outcome;
+using calibgen_run::read_text;
 
 void write_text(const fs::path &p, const std::string &text)
 {
@@ -167,11 +163,6 @@ private:
     }
 };
 
-struct Outcome {
-    int exit_code = -1;
-    std::string err;
-};
-
 class VerdictCli : public ::testing::Test {
 protected:
     void SetUp() override
@@ -183,17 +174,7 @@ protected:
     }
     void TearDown() override { fs::remove_all(dir_); }
 
-    Outcome run(const std::string &args) const
-    {
-        const fs::path err = dir_ / "stderr.txt";
-        const std::string cmd = "timeout -s KILL 120 \"" HAPTIC_CALIBGEN "\" " + args + " 2> \"" + err.string() + "\"";
-        const int status = std::system(cmd.c_str());
-        Outcome r;
-        if (WIFEXITED(status))
-            r.exit_code = WEXITSTATUS(status);
-        r.err = read_text(err);
-        return r;
-    }
+    Outcome run(const std::string &args) const { return calibgen_run::run(dir_, args); }
     static std::string q(const fs::path &p) { return "\"" + p.string() + "\""; }
 
     fs::path dir_;
