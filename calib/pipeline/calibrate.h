@@ -128,6 +128,9 @@ struct FocusMetrics {
         return crosses_threshold && others_below_threshold && (!whole_area || whole_area_below_threshold);
     }
     const char *verdict_scope() const { return whole_area ? "whole area" : "foci only"; }
+    // The focus's margin over what the verdict judges (dB): the whole-area
+    // contrast, or over the other foci where only they were measured.
+    double margin_db() const { return whole_area ? whole_area_contrast_db : other_foci_contrast_db; }
     // Why a focus fails, in one line, with where its ghost is and how far it
     // goes (empty when it passes).
     std::string failure(double threshold_m) const;
@@ -138,6 +141,7 @@ struct FocusMetrics {
 struct VerdictSummary {
     std::size_t passing = 0, total = 0;
     std::size_t worst = 0;
+    double worst_margin_db = 0;  // foci[worst].margin_db()
     bool all_pass() const { return passing == total; }
 };
 VerdictSummary summarize_verdict(const std::vector<FocusMetrics> &foci);

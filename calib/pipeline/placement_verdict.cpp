@@ -10,6 +10,7 @@
 #include <cmath>
 #include <map>
 #include <string>
+#include <tuple>
 
 namespace calib::pipeline {
 
@@ -84,13 +85,9 @@ private:
     std::size_t simulations_ = 0;
 };
 
-double worst_whole_area_db(const Verification &v)
-{
-    double w = INFINITY;
-    for (const FocusMetrics &m : v.foci)
-        w = std::min(w, m.whole_area ? m.whole_area_contrast_db : m.other_foci_contrast_db);
-    return w;
-}
+// The ranking of placements (verdict_better), as a tuple compared in order.
+using Rank = std::tuple<std::size_t, std::size_t, double>;
+Rank rank_of(const PlacementReport::Judged &j) { return {j.passing_at_target, j.passing, j.worst_whole_area_db}; }
 
 struct Trial {
     std::vector<std::size_t> chosen;
@@ -114,15 +111,19 @@ std::size_t passing_at_target(const Verification &v, double amplitude_m)
     return n;
 }
 
+PlacementReport::Judged judged_figures(const Verification &v, double amplitude_m)
+{
+    const VerdictSummary s = summarize_verdict(v.foci);
+    PlacementReport::Judged j;
+    j.passing = s.passing;
+    j.passing_at_target = passing_at_target(v, amplitude_m);
+    j.worst_whole_area_db = s.total > 0 ? s.worst_margin_db : INFINITY;
+    return j;
+}
+
 bool verdict_better(const Verification &a, const Verification &b, double amplitude_m)
 {
-    const std::size_t ta = passing_at_target(a, amplitude_m), tb = passing_at_target(b, amplitude_m);
-    if (ta != tb)
-        return ta > tb;
-    const std::size_t pa = summarize_verdict(a.foci).passing, pb = summarize_verdict(b.foci).passing;
-    if (pa != pb)
-        return pa > pb;
-    return worst_whole_area_db(a) > worst_whole_area_db(b);
+    return rank_of(judged_figures(a, amplitude_m)) > rank_of(judged_figures(b, amplitude_m));
 }
 
 TransferMatrix search_by_verdict(const CalibrationInput &in, PlacementSearch &search, const ProgressFn &progress,
@@ -144,11 +145,8 @@ TransferMatrix search_by_verdict(const CalibrationInput &in, PlacementSearch &se
         t.H = cache.matrix(chosen, progress);
         t.result.times.transfer_s = seconds_since(t1);
         signals_and_verification(in, t.H, {}, t.result, true);
-        PlacementReport::Judged j;
+        PlacementReport::Judged j = judged_figures(t.result.verification, in.pulse.amplitude_m);
         j.chosen = chosen;
-        j.passing = summarize_verdict(t.result.verification.foci).passing;
-        j.passing_at_target = passing_at_target(t.result.verification, in.pulse.amplitude_m);
-        j.worst_whole_area_db = worst_whole_area_db(t.result.verification);
         j.proxy_db = search.proxy_db(chosen);
         j.probes = search.probes();
         j.regular = regular;
@@ -212,14 +210,10 @@ TransferMatrix search_by_verdict(const CalibrationInput &in, PlacementSearch &se
     for (std::size_t a = 0; a < pl.judged.size(); a++)
         for (std::size_t b = a + 1; b < pl.judged.size(); b++) {
             const PlacementReport::Judged &x = pl.judged[a], &y = pl.judged[b];
-            if (x.passing_at_target == y.passing_at_target && x.passing == y.passing &&
-                x.worst_whole_area_db == y.worst_whole_area_db)
+            if (rank_of(x) == rank_of(y))
                 continue;
-            const bool truth = x.passing_at_target != y.passing_at_target ? x.passing_at_target > y.passing_at_target
-                               : x.passing != y.passing                   ? x.passing > y.passing
-                                                                          : x.worst_whole_area_db > y.worst_whole_area_db;
             pl.proxy_pairs++;
-            pl.proxy_agreements += (x.proxy_db > y.proxy_db) == truth;
+            pl.proxy_agreements += (x.proxy_db > y.proxy_db) == (rank_of(x) > rank_of(y));
         }
 
     const StageTimes searched = res.times;

@@ -48,6 +48,9 @@ bool judged_by_verdict(const CalibrationInput &in, const PlacementSearch &search
 bool verdict_better(const Verification &a, const Verification &b, double amplitude_m);
 // The foci that pass with their peak within 1 % of amplitude_m.
 std::size_t passing_at_target(const Verification &v, double amplitude_m);
+// The figures a placement is ranked by (calibrate.h PlacementReport::Judged,
+// no sites, no proxy).
+PlacementReport::Judged judged_figures(const Verification &v, double amplitude_m);
 
 // Runs the search above from the model's choice in res.placement; leaves in
 // res the best placement's exciters, signals, levels and verification (as

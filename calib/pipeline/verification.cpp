@@ -97,12 +97,12 @@ VerdictSummary summarize_verdict(const std::vector<FocusMetrics> &foci)
 {
     VerdictSummary s;
     s.total = foci.size();
-    auto margin = [](const FocusMetrics &m) { return m.whole_area ? m.whole_area_contrast_db : m.other_foci_contrast_db; };
     for (std::size_t f = 0; f < foci.size(); f++) {
         s.passing += foci[f].passes();
-        if (margin(foci[f]) < margin(foci[s.worst]))
+        if (foci[f].margin_db() < foci[s.worst].margin_db())
             s.worst = f;
     }
+    s.worst_margin_db = foci.empty() ? 0.0 : foci[s.worst].margin_db();
     return s;
 }
 
