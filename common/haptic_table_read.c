@@ -244,6 +244,31 @@ int haptic_table_validate(const void *data, size_t size, haptic_table *out, hapt
     return 0;
 }
 
+/* Steps 1-5 on the header alone: check_header and check_layout read only the
+ * fixed header (its first HAPTIC_TABLE_HEADER_SIZE bytes) and take the file's
+ * size as given, so they run on a prefix before the file is read. */
+static int check_prefix(int fd, size_t size, haptic_table_error *err)
+{
+    _Alignas(8) uint8_t head[HAPTIC_TABLE_HEADER_SIZE];
+    size_t want = size < sizeof head ? size : sizeof head, got = 0;
+    while (got < want) {
+        ssize_t n = pread(fd, head + got, want - got, (off_t)got);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            int e = n < 0 ? errno : 0;
+            return fail(err, e ? HAPTIC_TABLE_EIO : HAPTIC_TABLE_ETRUNC, got, "read failed at offset %zu: %s", got,
+                        e ? strerror(e) : "file shrank while reading");
+        }
+        got += (size_t)n;
+    }
+    haptic_table t;
+    memset(&t, 0, sizeof t);
+    uint32_t header_size = 0;
+    int rc = check_header(head, size, &t, &header_size, err);
+    return rc ? rc : check_layout(head, size, header_size, &t, err);
+}
+
 int haptic_table_open(const char *path, haptic_table *out, haptic_table_error *err)
 {
     if (!path || !out)
@@ -266,6 +291,16 @@ int haptic_table_open(const char *path, haptic_table *out, haptic_table_error *e
                     (long long)st.st_size, (unsigned long long)HAPTIC_TABLE_MAX_FILE_SIZE);
     }
     size_t size = (size_t)st.st_size;
+    /* The header first: a file that is no table, or whose header disagrees
+     * with its size, is refused before anything is allocated, so reading a
+     * large file that is not a table costs one header's read. What is
+     * allocated below is what the header's own sizes (checked against the
+     * format's limits) say the table holds. */
+    int rc = check_prefix(fd, size, err);
+    if (rc) {
+        close(fd);
+        return rc;
+    }
     uint8_t *buf = malloc(size ? size : 1);
     if (!buf) {
         close(fd);
@@ -286,7 +321,7 @@ int haptic_table_open(const char *path, haptic_table *out, haptic_table_error *e
         got += (size_t)n;
     }
     close(fd);
-    int rc = haptic_table_validate(buf, size, out, err);
+    rc = haptic_table_validate(buf, size, out, err);
     if (rc) {
         free(buf);
         memset(out, 0, sizeof *out);

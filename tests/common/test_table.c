@@ -12,6 +12,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -261,6 +263,62 @@ static void open_refuses_a_fifo_and_a_device_without_blocking(void **state)
     assert_int_equal(unlink(fifo), 0);
 }
 
+static long peak_rss_kib(void)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_maxrss;
+}
+
+/* Sparse file of `size` bytes whose first `n` bytes are `head`. */
+static void write_sparse(const char *path, const void *head, size_t n, off_t size)
+{
+    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    assert_true(fd >= 0);
+    assert_int_equal(write(fd, head, n), (ssize_t)n);
+    assert_int_equal(ftruncate(fd, size), 0);
+    close(fd);
+}
+
+/* The header is checked before the file is read: a 2 GiB file that is no
+ * table, and a real table's header on a file grown to 1 GiB, are refused
+ * with the header's own error while the peak memory stays where it was.
+ * Before, the whole file was read first (2 GiB resident, 19 s on a board's
+ * disk) and only then the magic looked at. */
+static void open_checks_the_header_before_reading_the_file(void **state)
+{
+    (void)state;
+    char path[300];
+    snprintf(path, sizeof path, "%s/sparse.htab", tmpdir);
+    haptic_table t;
+    haptic_table_error err;
+    const long before_kib = peak_rss_kib();
+    alarm(10);
+    write_sparse(path, "NOTATABLE", 9, (off_t)HAPTIC_TABLE_MAX_FILE_SIZE);
+    assert_int_equal(haptic_table_open(path, &t, &err), HAPTIC_TABLE_EMAGIC);
+    assert_int_equal(err.offset, 0);
+    assert_null(t.data);
+
+    table_fixture fx;
+    table_fixture_init(&fx, 8, 3, 200, 5);
+    uint8_t *buf;
+    size_t size = table_fixture_encode(&fx, &buf);
+    assert_true(size > 0);
+    write_sparse(path, buf, size, (off_t)1 << 30);
+    assert_int_equal(haptic_table_open(path, &t, &err), HAPTIC_TABLE_ELAYOUT);
+    assert_int_equal(err.offset, 40); /* file_size: the header disagrees with the file */
+    assert_null(t.data);
+    /* A file shorter than its header: truncated at its own size. */
+    write_sparse(path, buf, 100, 100);
+    assert_int_equal(haptic_table_open(path, &t, &err), HAPTIC_TABLE_ETRUNC);
+    assert_int_equal(err.offset, 100);
+    alarm(0);
+    assert_true(peak_rss_kib() - before_kib < 64 * 1024);
+    free(buf);
+    table_fixture_free(&fx);
+    assert_int_equal(unlink(path), 0);
+}
+
 static void writer_refuses_bad_specs(void **state)
 {
     (void)state;
@@ -369,6 +427,7 @@ int main(void)
         cmocka_unit_test(writer_replaces_atomically_and_fails_cleanly),
         cmocka_unit_test(open_reports_missing_file),
         cmocka_unit_test(open_refuses_a_fifo_and_a_device_without_blocking),
+        cmocka_unit_test(open_checks_the_header_before_reading_the_file),
         cmocka_unit_test(writer_refuses_bad_specs),
         cmocka_unit_test(accessors_check_their_indices),
         cmocka_unit_test(panel_section_round_trips_and_is_optional),
