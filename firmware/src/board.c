@@ -3,6 +3,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include "board.h"
 
+#include "text.h"
 #include "touch.h"
 
 #include <haptic_stretch.h>
@@ -472,26 +473,59 @@ static int finish(struct parse_ctx *c, int rc, const char *path, char err[HD_ERR
     return 0;
 }
 
-int hd_board_parse_string(const char *text, const char *path, struct hd_board *b, char err[HD_ERR_MAX])
+/* Every line is text and fits the ini reader whole. inih reads a line into a
+ * fixed buffer and parses what does not fit as a line of its own (a long
+ * comment's tail "periods = 32" would take effect), and its line numbers
+ * count those pieces; so a line longer than HD_BOARD_LINE_MAX is refused
+ * here, naming its true line, before inih sees the file. */
+static int check_lines(const char *text, size_t len, const char *path, char err[HD_ERR_MAX])
+{
+    unsigned no = 0;
+    for (size_t at = 0; at < len;) {
+        const char *nl = memchr(text + at, '\n', len - at);
+        size_t n = nl ? (size_t)(nl - (text + at)) : len - at;
+        size_t column;
+        const char *what;
+        no++;
+        if (n > HD_BOARD_LINE_MAX) {
+            snprintf(err, HD_ERR_MAX, "%.400s:%u: line of %zu bytes, longer than %u (not a board file line)", path, no,
+                     n, HD_BOARD_LINE_MAX);
+            return -EINVAL;
+        }
+        if ((what = hd_text_check_line(text + at, n, &column))) {
+            snprintf(err, HD_ERR_MAX, "%.400s:%u: %s at column %zu (a board file is UTF-8 text)", path, no, what,
+                     column);
+            return -EINVAL;
+        }
+        at += n + 1;
+    }
+    return 0;
+}
+
+static int parse_text(const char *text, size_t len, const char *path, struct hd_board *b, char err[HD_ERR_MAX])
 {
     struct parse_ctx c = {.b = b};
     hd_board_defaults(b);
     snprintf(b->path, sizeof b->path, "%s", path);
     set_dir(&c, path);
-    int rc = ini_parse_string(text, handler, &c);
-    return finish(&c, rc, path, err);
+    int rc = check_lines(text, len, path, err);
+    if (rc)
+        return rc;
+    return finish(&c, ini_parse_string(text, handler, &c), path, err);
+}
+
+int hd_board_parse_string(const char *text, const char *path, struct hd_board *b, char err[HD_ERR_MAX])
+{
+    return parse_text(text, strlen(text), path, b, err);
 }
 
 int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX])
 {
-    struct parse_ctx c = {.b = b};
     hd_board_defaults(b);
     if (strlen(path) >= sizeof b->path) {
         snprintf(err, HD_ERR_MAX, "%.100s...: board path too long", path);
         return -ENAMETOOLONG;
     }
-    snprintf(b->path, sizeof b->path, "%s", path);
-    set_dir(&c, path);
     /* Opened without blocking (a FIFO at the path would block fopen) and
      * refused unless it is a regular file: a directory, a FIFO or a device
      * such as /dev/zero is no board file, and reading one could not end. */
@@ -501,20 +535,40 @@ int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX])
         snprintf(err, HD_ERR_MAX, "%s: cannot open board file: %s", path, strerror(e));
         return -e;
     }
-    struct stat st;
+    struct stat st = {0};
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
         close(fd);
-        snprintf(err, HD_ERR_MAX, "%s: not a regular file (a board file is a text file)", path);
+        snprintf(err, HD_ERR_MAX, "%s: not a regular file (a %s is no board file)", path,
+                 S_ISDIR(st.st_mode) ? "directory" : S_ISFIFO(st.st_mode) ? "FIFO" : "device or socket");
         return -EINVAL;
     }
-    FILE *f = fdopen(fd, "r");
-    if (!f) {
-        int e = errno;
+    /* Read whole, bounded before allocating: a board file is a page of text. */
+    if (st.st_size > (off_t)HD_BOARD_MAX_BYTES) {
         close(fd);
-        snprintf(err, HD_ERR_MAX, "%s: cannot open board file: %s", path, strerror(e));
+        snprintf(err, HD_ERR_MAX, "%s: %lld bytes, larger than the %u a board file may have", path,
+                 (long long)st.st_size, HD_BOARD_MAX_BYTES);
+        return -EFBIG;
+    }
+    char *text = malloc((size_t)st.st_size + 1);
+    size_t got = 0;
+    int e = text ? 0 : ENOMEM;
+    while (!e && got < (size_t)st.st_size) {
+        ssize_t n = read(fd, text + got, (size_t)st.st_size - got);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0)
+            e = n < 0 ? errno : EIO; /* shrank while read */
+        else
+            got += (size_t)n;
+    }
+    close(fd);
+    if (e) {
+        free(text);
+        snprintf(err, HD_ERR_MAX, "%s: cannot read board file: %s", path, strerror(e));
         return -e;
     }
-    int rc = ini_parse_file(f, handler, &c);
-    fclose(f);
-    return finish(&c, rc, path, err);
+    text[got] = '\0';
+    int rc = parse_text(text, got, path, b, err);
+    free(text);
+    return rc;
 }

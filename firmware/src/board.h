@@ -79,6 +79,12 @@ struct hd_board {
 /* Defaults for every key (64 frames x 2 periods, 48 kHz, S32_LE, 8 channels, identity map). */
 void hd_board_defaults(struct hd_board *b);
 
+/* A board file: at most HD_BOARD_MAX_BYTES, UTF-8 text, lines of at most
+ * HD_BOARD_LINE_MAX bytes (the newline excluded): what the ini reader holds
+ * whole (Debian's inih reads 199 bytes and a NUL). */
+#define HD_BOARD_MAX_BYTES (256u * 1024u)
+#define HD_BOARD_LINE_MAX 199u
+
 /* Parse a board file. Returns 0, or -errno / -EINVAL with a one-line message in err. */
 int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX]);
 

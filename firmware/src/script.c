@@ -22,20 +22,28 @@ static int refuse(struct hd_script *s, int rc, char err[HD_ERR_MAX], const char 
 
 int hd_script_read(FILE *f, const char *name, struct hd_script *s, char err[HD_ERR_MAX])
 {
-    char line[HD_SCRIPT_LINE_MAX + 2];
+    char line[HD_TRIGGER_LINE_MAX + 2];
     unsigned no = 0;
     size_t cap = 0;
     memset(s, 0, sizeof *s);
-    while (fgets(line, sizeof line, f)) {
+    for (;;) {
+        /* Read by hand, not fgets: the line's true length shows a NUL in it. */
+        size_t len = 0;
+        int c;
+        while ((c = getc(f)) != EOF && c != '\n')
+            if (len < HD_TRIGGER_LINE_MAX + 1)
+                line[len++] = (char)c;
+        if (c == EOF && len == 0)
+            break;
         no++;
-        size_t len = strlen(line);
-        if (len && line[len - 1] == '\n')
-            line[--len] = '\0';
-        else if (!feof(f)) /* fgets split the line: the rest would read as a line of its own */
-            return refuse(s, -EINVAL, err, name, no, "line longer than 510 characters");
-        struct hd_event ev;
         char msg[200];
-        int r = hd_host_parse(line, &ev, msg, sizeof msg);
+        if (len > HD_TRIGGER_LINE_MAX) {
+            snprintf(msg, sizeof msg, "line longer than %u characters", HD_TRIGGER_LINE_MAX);
+            return refuse(s, -EINVAL, err, name, no, msg);
+        }
+        line[len] = '\0';
+        struct hd_event ev;
+        int r = hd_host_parse_line(line, len, &ev, msg, sizeof msg);
         if (r == 0)
             continue;
         if (r < 0)

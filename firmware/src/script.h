@@ -11,8 +11,6 @@
 #include <stddef.h>
 #include <stdio.h>
 
-#define HD_SCRIPT_LINE_MAX 510u /* characters per line, newline excluded */
-
 struct hd_script {
     struct hd_event *events;  /* in file order, frame non-decreasing */
     size_t count;

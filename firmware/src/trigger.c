@@ -82,72 +82,109 @@ enum hd_line_verdict hd_line_health_fd_error(struct hd_line_health *h, unsigned 
     return HD_LINE_DISABLED;
 }
 
+static int is_ws(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
 static const char *skip_ws(const char *p)
 {
-    while (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\n')
+    while (is_ws(*p))
         p++;
     return p;
 }
 
-/* Reads one word into w (at most cap-1 chars); returns the rest. */
-static const char *word(const char *p, char *w, size_t cap)
+/* A word of the line, where it stands: [p, p + n). */
+struct span {
+    const char *p;
+    size_t n;
+};
+
+static const char *next_word(const char *p, struct span *w)
 {
-    size_t n = 0;
     p = skip_ws(p);
-    while (*p && *p != ' ' && *p != '\t' && *p != '\r' && *p != '\n') {
-        if (n + 1 < cap)
-            w[n++] = *p;
-        else
-            n = cap; /* too long: mark invalid below */
+    w->p = p;
+    while (*p && !is_ws(*p))
         p++;
-    }
-    if (n >= cap) { /* too long: an invalid word the caller reports */
-        w[0] = '?';
-        n = 1;
-    }
-    w[n] = '\0';
+    w->n = (size_t)(p - w->p);
     return p;
+}
+
+static int is_word(struct span w, const char *s) { return w.n == strlen(s) && !memcmp(w.p, s, w.n); }
+
+/* The word into buf as a C string; 0 if it does not fit. */
+static int copy_word(struct span w, char *buf, size_t cap)
+{
+    if (w.n >= cap)
+        return 0;
+    memcpy(buf, w.p, w.n);
+    buf[w.n] = '\0';
+    return 1;
+}
+
+/* What a message quotes of the sender's text: at most 40 bytes, and the
+ * whole length when cut. (Escaping is the log's: log.h.) */
+static const char *quoted(char buf[80], const char *p, size_t n)
+{
+    if (n <= 40)
+        snprintf(buf, 80, "'%.*s'", (int)n, p);
+    else
+        snprintf(buf, 80, "'%.40s...' (%zu bytes)", p, n);
+    return buf;
 }
 
 int hd_host_parse(const char *line, struct hd_event *out, char *err, unsigned err_size)
 {
-    char w[64];
+    char q[80];
+    struct span w;
     const char *p = skip_ws(line);
     if (*p == '\0' || *p == '#')
         return 0;
     memset(out, 0, sizeof *out);
     out->frame = -1;
-    p = word(p, w, sizeof w);
-    if (!strcmp(w, "at")) {
+    p = next_word(p, &w);
+    if (is_word(w, "at")) {
         char num[32];
-        p = word(p, num, sizeof num);
+        struct span f;
+        p = next_word(p, &f);
         char *end;
         errno = 0;
-        long long f = strtoll(num, &end, 10);
-        if (!num[0] || num[0] == '-' || num[0] == '+' || *end || errno || f < 0) {
-            snprintf(err, err_size, "'at' needs a frame index >= 0, got '%s'", num);
+        long long v = copy_word(f, num, sizeof num) ? strtoll(num, &end, 10) : -1;
+        if (v < 0 || !num[0] || num[0] == '-' || num[0] == '+' || *end || errno) {
+            snprintf(err, err_size, "'at' needs a frame index >= 0, got %s", quoted(q, f.p, f.n));
             return -EINVAL;
         }
-        out->frame = f;
-        p = word(p, w, sizeof w);
+        out->frame = v;
+        p = next_word(p, &w);
     }
-    bool single = !strcmp(w, "focus");
-    if (!single && strcmp(w, "foci")) {
-        snprintf(err, err_size, "unknown command '%.40s' (expected focus N, foci A,B or at FRAME ...)", w);
+    bool single = is_word(w, "focus");
+    if (!single && !is_word(w, "foci")) {
+        snprintf(err, err_size, "unknown command %s (expected focus N, foci A,B or at FRAME ...)",
+                 quoted(q, w.p, w.n));
+        return -EINVAL;
+    }
+    struct span l;
+    p = next_word(p, &l);
+    const char *rest = skip_ws(p);
+    if (*rest != '\0' && *rest != '#') {
+        snprintf(err, err_size, "unexpected text after the focus list: %s", quoted(q, rest, strlen(rest)));
         return -EINVAL;
     }
     char list[256];
-    p = word(p, list, sizeof list);
-    if (*skip_ws(p) != '\0' && *skip_ws(p) != '#') {
-        snprintf(err, err_size, "unexpected text after the focus list: '%.40s'", skip_ws(p));
-        return -EINVAL;
-    }
-    int n = hd_parse_uint_list(list, out->focus_ids, HD_MAX_EVENT_FOCI, UINT32_MAX);
+    int n = copy_word(l, list, sizeof list) ? hd_parse_uint_list(list, out->focus_ids, HD_MAX_EVENT_FOCI, UINT32_MAX)
+                                            : -1;
     if (n < 1 || (single && n != 1)) {
-        snprintf(err, err_size, "'%.40s' is not %s", list,
+        snprintf(err, err_size, "%s is not %s", quoted(q, l.p, l.n),
                  single ? "one focus id" : "a comma-separated list of up to 16 focus ids");
         return -EINVAL;
     }
     out->focus_count = (uint32_t)n;
     return 1;
+}
+
+int hd_host_parse_line(const char *line, size_t len, struct hd_event *out, char *err, unsigned err_size)
+{
+    const char *nul = memchr(line, '\0', len);
+    if (nul) {
+        snprintf(err, err_size, "a NUL byte at column %zu: not a text line", (size_t)(nul - line) + 1);
+        return -EINVAL;
+    }
+    return hd_host_parse(line, out, err, err_size);
 }

@@ -20,6 +20,7 @@
 #include "board.h"
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 /* One trigger: the foci (table ids) to play, and when it happened. */
@@ -81,8 +82,15 @@ enum hd_line_verdict hd_line_health_read(struct hd_line_health *h, unsigned i, i
 /* The line's event fd reported POLLERR/POLLNVAL: disabled at once. */
 enum hd_line_verdict hd_line_health_fd_error(struct hd_line_health *h, unsigned i);
 
+/* Bytes per host trigger or script line, newline excluded. */
+#define HD_TRIGGER_LINE_MAX 510u
+
 /* Parse one host trigger line (no trailing newline needed). Returns 1 with
  * *out filled, 0 for a blank or comment line, -EINVAL with a message in err. */
 int hd_host_parse(const char *line, struct hd_event *out, char *err, unsigned err_size);
+/* The same for a line of `len` bytes as read (line[len] must be '\0'): a NUL
+ * inside it makes the line invalid, where a C string would end at the NUL
+ * and play what stood before it ("focus 1\0garbage"). */
+int hd_host_parse_line(const char *line, size_t len, struct hd_event *out, char *err, unsigned err_size);
 
 #endif

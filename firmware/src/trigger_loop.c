@@ -12,30 +12,58 @@
 #include <string.h>
 #include <unistd.h>
 
+/* Host trigger lines from a FIFO or stdin: one warning per bad line (a line
+ * too long is one warning, however long), at most HOST_WARN_BURST a second,
+ * the rest counted (log.h). */
+#define HOST_WARN_BURST 10u
+
 struct line_reader {
-    char buf[512];
+    char buf[HD_TRIGGER_LINE_MAX + 2];
     size_t len;
     unsigned line_no;
-    int overflow;
+    size_t overflow;               /* bytes of a line too long seen so far; 0: none */
+    struct hd_log_limit warn;
 };
 
-static void host_line(struct hd_trigger_loop *l, const char *line, unsigned line_no)
+static const char *host_source(const struct hd_trigger_loop *l, char src[HD_PATH_MAX + 16])
+{
+    snprintf(src, HD_PATH_MAX + 16, "triggers %s", l->host_name);
+    return src;
+}
+
+static void host_warn(struct hd_trigger_loop *l, struct line_reader *r, unsigned line_no, const char *what)
+{
+    char src[HD_PATH_MAX + 16];
+    host_source(l, src);
+    if (hd_log_limit_allow(&r->warn, hd_now_ns(), src))
+        hd_log(LOG_WARNING, "%s:%u: %s (ignored)", src, line_no, what);
+}
+
+static void host_line(struct hd_trigger_loop *l, struct line_reader *r, const char *line, size_t len)
 {
     struct hd_event ev;
     char err[200];
-    int rc = hd_host_parse(line, &ev, err, sizeof err);
+    int rc = hd_host_parse_line(line, len, &ev, err, sizeof err);
     if (rc < 0) {
-        hd_log(LOG_WARNING, "triggers %s:%u: %s (ignored)", l->host_name, line_no, err);
+        host_warn(l, r, r->line_no, err);
         return;
     }
     if (rc == 0)
         return;
     if (ev.frame >= 0) {
-        hd_log(LOG_WARNING, "triggers %s:%u: 'at FRAME' needs --script (ignored)", l->host_name, line_no);
+        host_warn(l, r, r->line_no, "'at FRAME' needs --script");
         return;
     }
     ev.t_ns = hd_now_ns();
     l->push(l->push_ctx, &ev);
+}
+
+static void host_overflow_ends(struct hd_trigger_loop *l, struct line_reader *r, size_t tail)
+{
+    char what[96];
+    snprintf(what, sizeof what, "line of %zu bytes, longer than %u", r->overflow + tail, HD_TRIGGER_LINE_MAX);
+    host_warn(l, r, r->line_no, what);
+    r->overflow = 0;
 }
 
 /* Returns 0 on EOF, 1 if more may come. */
@@ -44,25 +72,34 @@ static int host_read(struct hd_trigger_loop *l, struct line_reader *r)
     ssize_t n = read(l->host_fd, r->buf + r->len, sizeof r->buf - 1 - r->len);
     if (n < 0)
         return errno == EINTR || errno == EAGAIN ? 1 : 0;
-    if (n == 0)
+    if (n == 0) {
+        if (r->overflow || r->len) { /* a last line without its newline */
+            r->line_no++;
+            if (r->overflow)
+                host_overflow_ends(l, r, r->len);
+            else
+                host_line(l, r, (r->buf[r->len] = '\0', r->buf), r->len);
+        }
+        char src[HD_PATH_MAX + 16];
+        hd_log_limit_flush(&r->warn, host_source(l, src));
         return 0;
+    }
     r->len += (size_t)n;
     char *start = r->buf, *nl;
     while ((nl = memchr(start, '\n', r->len - (size_t)(start - r->buf)))) {
         *nl = '\0';
         r->line_no++;
-        if (!r->overflow)
-            host_line(l, start, r->line_no);
-        r->overflow = 0;
+        if (r->overflow)
+            host_overflow_ends(l, r, (size_t)(nl - start));
+        else
+            host_line(l, r, start, (size_t)(nl - start));
         start = nl + 1;
     }
     r->len -= (size_t)(start - r->buf);
     memmove(r->buf, start, r->len);
-    if (r->len == sizeof r->buf - 1) { /* a line longer than the buffer: drop it */
-        hd_log(LOG_WARNING, "triggers %s:%u: line longer than %zu bytes (ignored)", l->host_name, r->line_no + 1,
-               sizeof r->buf - 2);
+    if (r->len == sizeof r->buf - 1) { /* no newline in a full buffer: the line is too long */
+        r->overflow += r->len;
         r->len = 0;
-        r->overflow = 1;
     }
     return 1;
 }
@@ -145,7 +182,7 @@ static void touch_retry(struct hd_trigger_loop *l, uint64_t *last_try_ns)
 void *hd_trigger_loop_run(void *arg)
 {
     struct hd_trigger_loop *l = arg;
-    struct line_reader reader = {.len = 0};
+    struct line_reader reader = {.warn = {.burst = HOST_WARN_BURST, .window_ns = 1000000000u}};
     struct pollfd pfd[3 + HD_MAX_LINES];
     int host_open = l->host_fd >= 0;
     const unsigned lines = l->gpio ? l->gpio->count : 0;
@@ -164,8 +201,11 @@ void *hd_trigger_loop_run(void *arg)
             hd_log(LOG_ERR, "trigger poll: %s", strerror(errno));
             return NULL;
         }
-        if (pfd[0].revents)
+        if (pfd[0].revents) {
+            char src[HD_PATH_MAX + 16];
+            hd_log_limit_flush(&reader.warn, host_source(l, src));
             return NULL;
+        }
         if (l->evdev)
             take_new_foci(l);
         if (host_open && (pfd[1].revents & (POLLIN | POLLHUP)) && !host_read(l, &reader)) {

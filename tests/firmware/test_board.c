@@ -272,6 +272,89 @@ static void refuses_what_is_not_a_regular_file(void **state)
     assert_int_equal(rmdir(dir), 0);
 }
 
+/* Lines the ini reader cannot hold whole, and bytes that are not text, are
+ * refused naming their true line; a line of exactly HD_BOARD_LINE_MAX bytes
+ * is read whole. Before, a comment of 200+ bytes had its tail parsed as a
+ * setting ("... periods = 32" set the buffer to 42.7 ms) and a 1 MB value
+ * line was blamed on a line past the file's end. */
+static void long_lines_and_raw_bytes_are_refused_on_their_line(void **state)
+{
+    (void)state;
+    static char text[1200000];
+    struct hd_board b;
+    char err[HD_ERR_MAX];
+    /* A comment whose tail, cut by inih, would read "periods = 32". */
+    for (unsigned len = HD_BOARD_LINE_MAX; len <= HD_BOARD_LINE_MAX + 60; len += 60) {
+        static const char head[] = "[alsa]\ndevice = hw:0\n", comment[] = "; old setting kept for reference ";
+        const size_t dashes = len - (sizeof comment - 1) - strlen("periods = 32");
+        int n = snprintf(text, sizeof text, "%s%s", head, comment);
+        memset(text + n, '-', dashes);
+        snprintf(text + n + dashes, sizeof text - (size_t)n - dashes, "periods = 32\nperiods = 3\n");
+        err[0] = '\0';
+        int rc = hd_board_parse_string(text, "t/board.ini", &b, err);
+        if (len == HD_BOARD_LINE_MAX) {
+            if (rc != 0)
+                fail_msg("a %u-byte comment refused: %s", len, err);
+            assert_int_equal(b.periods, 3);
+        } else {
+            assert_int_equal(rc, -EINVAL);
+            char want[128];
+            snprintf(want, sizeof want, "t/board.ini:3: line of %u bytes, longer than %u", len, HD_BOARD_LINE_MAX);
+            assert_non_null(strstr(err, want));
+        }
+    }
+    /* A 1 MB value on line 2 of a 3-line file: line 2. */
+    int n = snprintf(text, sizeof text, "[alsa]\ndevice = ");
+    memset(text + n, 'x', 1000000);
+    strcpy(text + n + 1000000, "\nperiods = 3\n");
+    assert_int_equal(hd_board_parse_string(text, "t/board.ini", &b, err), -EINVAL);
+    assert_non_null(strstr(err, "t/board.ini:2: line of 1000009 bytes"));
+    static const struct {
+        const char *text, *want;
+    } raw[] = {
+        {"[alsa]\ndevice = hw:0\x1b[2J\n", "t/board.ini:2: a control byte at column 14"},
+        {"[alsa]\n\ndevice = caf\xe9\n", "t/board.ini:3: a byte that is not UTF-8 at column 13"},
+        {"[alsa]\n; \xc0\xaf overlong\n", "t/board.ini:2: a byte that is not UTF-8 at column 3"},
+        {"[alsa]\ndevice = hw:0\x7f\n", "t/board.ini:2: a control byte at column 14"},
+    };
+    for (size_t i = 0; i < sizeof raw / sizeof raw[0]; i++) {
+        err[0] = '\0';
+        assert_int_equal(hd_board_parse_string(raw[i].text, "t/board.ini", &b, err), -EINVAL);
+        if (!strstr(err, raw[i].want))
+            fail_msg("case %zu: '%s'", i, err);
+    }
+    /* UTF-8 text, tabs and CRLF line ends are text. */
+    assert_int_equal(hd_board_parse_string("; caf\xc3\xa9 \xe2\x80\x94 ok\r\n[alsa]\r\n\tdevice = hw:0\r\n", "t/board.ini", &b,
+                                           err),
+                     0);
+}
+
+/* A NUL in a board file (hd_board_load: the file's own bytes, not a C
+ * string) and a file larger than a board file may be: refused in one line. */
+static void nul_bytes_and_huge_files_are_refused(void **state)
+{
+    (void)state;
+    char dir[] = "/tmp/hd-board-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char path[64];
+    snprintf(path, sizeof path, "%s/board.ini", dir);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fwrite("[alsa]\ndevice = hw:0\0periods = 3\n", 1, 34, f);
+    fclose(f);
+    struct hd_board b;
+    char err[HD_ERR_MAX] = "";
+    assert_int_equal(hd_board_load(path, &b, err), -EINVAL);
+    assert_non_null(strstr(err, "board.ini:2: a NUL byte at column 14"));
+    assert_int_equal(truncate(path, (off_t)HD_BOARD_MAX_BYTES + 1), 0);
+    assert_int_equal(hd_board_load(path, &b, err), -EFBIG);
+    assert_non_null(strstr(err, "larger than the 262144 a board file may have"));
+    assert_int_equal(unlink(path), 0);
+    assert_int_equal(hd_board_load(dir, &b, err), -EINVAL);
+    assert_non_null(strstr(err, "(a directory is no board file)"));
+    assert_int_equal(rmdir(dir), 0);
+}
+
 static void shipped_boards_parse(void **state)
 {
     (void)state;
@@ -350,7 +433,9 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(every_key), cmocka_unit_test(defaults),     cmocka_unit_test(bad_values),
-        cmocka_unit_test(missing_file), cmocka_unit_test(refuses_what_is_not_a_regular_file), cmocka_unit_test(uint_list), cmocka_unit_test(shipped_boards_parse),
+        cmocka_unit_test(missing_file), cmocka_unit_test(refuses_what_is_not_a_regular_file),
+        cmocka_unit_test(long_lines_and_raw_bytes_are_refused_on_their_line),
+        cmocka_unit_test(nul_bytes_and_huge_files_are_refused), cmocka_unit_test(uint_list), cmocka_unit_test(shipped_boards_parse),
         cmocka_unit_test(touch_section),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

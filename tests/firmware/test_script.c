@@ -110,6 +110,22 @@ static void long_line_refused_not_split(void **state)
     hd_script_free(&s);
 }
 
+/* A NUL inside a line refuses it (fgets and strlen would have stopped at
+ * the NUL and kept "at 0 focus 1"). */
+static void nul_in_a_line_is_refused(void **state)
+{
+    (void)state;
+    static const char text[] = "at 0 focus 2\nat 0 focus 1\0garbage\n";
+    FILE *f = fmemopen((void *)text, sizeof text - 1, "r");
+    assert_non_null(f);
+    struct hd_script s;
+    char err[HD_ERR_MAX];
+    assert_int_equal(hd_script_read(f, "t.txt", &s, err), -EINVAL);
+    fclose(f);
+    assert_string_equal(err, "t.txt:2: a NUL byte at column 13: not a text line");
+    assert_null(s.events);
+}
+
 static void missing_file_named(void **state)
 {
     (void)state;
@@ -127,7 +143,7 @@ int main(void)
         cmocka_unit_test(many_events_grow),
         cmocka_unit_test(bad_lines_refused_with_their_number),
         cmocka_unit_test(long_line_refused_not_split),
-        cmocka_unit_test(missing_file_named),
+        cmocka_unit_test(nul_in_a_line_is_refused), cmocka_unit_test(missing_file_named),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

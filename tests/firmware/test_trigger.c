@@ -1,5 +1,7 @@
 /* Trigger state machine (lockout on event timestamps, bouncing edges,
  * simultaneous lines, unknown lines) and the host trigger parser. */
+#include "log.h"
+#include "text.h"
 #include "trigger.h"
 
 #include <errno.h>
@@ -143,6 +145,72 @@ static void host_commands(void **state)
     }
 }
 
+/* A NUL inside a line makes it invalid (a C string would stop there and
+ * play "focus 1"); what a message quotes of the sender's text is at most 40
+ * bytes and says how long the text was. */
+static void host_lines_with_nul_and_long_words(void **state)
+{
+    (void)state;
+    struct hd_event ev;
+    char err[200];
+    static const char nul_line[] = "focus 1\0garbage";
+    assert_int_equal(hd_host_parse_line(nul_line, sizeof nul_line - 1, &ev, err, sizeof err), -EINVAL);
+    assert_string_equal(err, "a NUL byte at column 8: not a text line");
+    assert_int_equal(hd_host_parse_line("focus 1", 7, &ev, err, sizeof err), 1);
+    assert_int_equal(ev.focus_ids[0], 1);
+    char line[300];
+    memset(line, 'w', 100);
+    line[100] = '\0';
+    assert_int_equal(hd_host_parse_line(line, 100, &ev, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, "unknown command 'wwwwwwwwwwwwwwwwwwwwwwwwwwwwwwwwwwwwwwww...' (100 bytes)"));
+    memcpy(line, "foci ", 5);
+    memset(line + 5, '1', 200); /* 200 digits: far above any focus id */
+    line[205] = '\0';
+    assert_int_equal(hd_host_parse(line, &ev, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, "...' (200 bytes) is not a comma-separated list"));
+    assert_int_equal(hd_host_parse("focus 3 \x1b]0;PWNED\x07", &ev, err, sizeof err), -EINVAL);
+    assert_non_null(strstr(err, "unexpected text after the focus list: '\x1b]0;PWNED\x07'"));
+}
+
+/* The log's one escaping rule: printable ASCII and valid UTF-8 stay, control
+ * bytes, DEL, invalid UTF-8 (a lone continuation byte, an overlong form, a
+ * surrogate, a cut sequence) become \xNN, a backslash \\; a full buffer cuts
+ * at a whole escape and says how much it consumed. */
+static void log_escapes_what_is_not_text(void **state)
+{
+    (void)state;
+    char out[128];
+    static const char in[] = "ok \x1b]0;PWNED\x07 \xc3\xa9 \x80 \xc0\xaf \xed\xa0\x80 \\ \x7f\t\xe2\x82";
+    size_t used = hd_text_escape(out, sizeof out, in, sizeof in - 1);
+    assert_int_equal(used, sizeof in - 1);
+    assert_string_equal(out, "ok \\x1b]0;PWNED\\x07 \xc3\xa9 \\x80 \\xc0\\xaf \\xed\\xa0\\x80 \\\\ \\x7f\\x09\\xe2\\x82");
+    /* "\x1b" does not fit in 4 bytes + NUL after "ab": cut before it. */
+    char small[6];
+    assert_int_equal(hd_text_escape(small, sizeof small, "ab\x1b" "c", 4), 2);
+    assert_string_equal(small, "ab");
+    assert_int_equal(hd_text_escape(small, sizeof small, "\xf0\x9f\x98\x80z", 5), 5); /* U+1F600 kept whole */
+    assert_string_equal(small, "\xf0\x9f\x98\x80z");
+}
+
+/* The flood guard: `burst` messages a window, the rest counted; a new window
+ * lets `burst` through again (the summary line is hd_log's, not checked here). */
+static void log_limit_lets_a_burst_through(void **state)
+{
+    (void)state;
+    struct hd_log_limit l = {.burst = 3, .window_ns = 1000};
+    unsigned allowed = 0;
+    for (uint64_t t = 5000; t < 5100; t++)
+        allowed += (unsigned)hd_log_limit_allow(&l, t, "test");
+    assert_int_equal(allowed, 3);
+    assert_int_equal(l.suppressed, 97);
+    assert_int_equal(hd_log_limit_allow(&l, 6000, "test"), 1); /* next window: flushed, open again */
+    assert_int_equal(l.suppressed, 0);
+    assert_int_equal(hd_log_limit_allow(&l, 6999, "test"), 1);
+    assert_int_equal(hd_log_limit_allow(&l, 6999, "test"), 1);
+    assert_int_equal(hd_log_limit_allow(&l, 6999, "test"), 0);
+    assert_int_equal(hd_log_limit_allow(&l, 10, "test"), 1); /* clock stepped back: a new window */
+}
+
 /* The policy for a failing GPIO line: 99 failed reads in a row are glitches,
  * the 100th disables the line; a good read (or an edge of an unknown line:
  * the read worked) resets the count; an fd error disables at once; lines are
@@ -180,7 +248,8 @@ int main(void)
         cmocka_unit_test(lockout_and_bounce), cmocka_unit_test(active_high_and_edges),
         cmocka_unit_test(simultaneous_lines), cmocka_unit_test(unknown_line),
         cmocka_unit_test(no_lockout_and_clock_step), cmocka_unit_test(host_commands),
-        cmocka_unit_test(line_error_policy),
+        cmocka_unit_test(line_error_policy), cmocka_unit_test(host_lines_with_nul_and_long_words),
+        cmocka_unit_test(log_escapes_what_is_not_text), cmocka_unit_test(log_limit_lets_a_burst_through),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
