@@ -4,6 +4,8 @@
 #include "audio_alsa.h"
 
 #include <errno.h>
+#include <stdarg.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -98,12 +100,20 @@ int hd_audio_open(struct hd_audio *a, const struct hd_board *b, const char *devi
                  b->alsa_config, snd_strerror(rc));
         return rc;
     }
-    rc = a->lconf ? snd_pcm_open_lconf(&a->pcm, device, SND_PCM_STREAM_PLAYBACK, 0, a->lconf)
-                  : snd_pcm_open(&a->pcm, device, SND_PCM_STREAM_PLAYBACK, 0);
+    /* Opened non-blocking: a device another process holds is refused with
+     * EBUSY at once instead of waiting in open() for it to be released
+     * (where SIGTERM could not reach the drain); then blocking for writes. */
+    rc = a->lconf ? snd_pcm_open_lconf(&a->pcm, device, SND_PCM_STREAM_PLAYBACK, SND_PCM_NONBLOCK, a->lconf)
+                  : snd_pcm_open(&a->pcm, device, SND_PCM_STREAM_PLAYBACK, SND_PCM_NONBLOCK);
     if (rc < 0) {
-        snprintf(err, HD_ERR_MAX, "cannot open ALSA device '%s' ([alsa] device in %s): %s", device, b->path,
-                 snd_strerror(rc));
+        snprintf(err, HD_ERR_MAX, "cannot open ALSA device '%s' ([alsa] device in %s): %s%s", device, b->path,
+                 snd_strerror(rc), rc == -EBUSY ? " (another program is using it)" : "");
         a->pcm = NULL;
+        goto fail;
+    }
+    if ((rc = snd_pcm_nonblock(a->pcm, 0)) < 0) {
+        snprintf(err, HD_ERR_MAX, "ALSA device '%s' ([alsa] in %s): cannot set blocking mode: %s", device, b->path,
+                 snd_strerror(rc));
         goto fail;
     }
     const char *what = "";
@@ -311,4 +321,68 @@ void hd_audio_close(struct hd_audio *a, int drain)
         snd_config_delete(a->lconf);
     free(a->silence);
     memset(a, 0, sizeof *a);
+}
+
+/* ---- libasound's messages ---- */
+
+static char lib_first[512];
+static atomic_ulong lib_count;   /* messages since the last take */
+static atomic_int lib_slot;      /* 0 free, 1 being written, 2 holds the first message */
+
+static void lib_message(const char *file, int line, const char *function, int err, const char *fmt, ...)
+{
+    (void)file;
+    (void)line;
+    atomic_fetch_add(&lib_count, 1);
+    int expected = 0;
+    if (!atomic_compare_exchange_strong(&lib_slot, &expected, 1))
+        return; /* a first message is already kept */
+    int n = snprintf(lib_first, sizeof lib_first, "%s: ", function ? function : "?");
+    va_list ap;
+    va_start(ap, fmt);
+    if (n > 0 && (size_t)n < sizeof lib_first)
+        n += vsnprintf(lib_first + n, sizeof lib_first - (size_t)n, fmt, ap);
+    va_end(ap);
+    if (err && n > 0 && (size_t)n < sizeof lib_first)
+        snprintf(lib_first + n, sizeof lib_first - (size_t)n, ": %s", snd_strerror(err));
+    atomic_store(&lib_slot, 2);
+}
+
+void hd_audio_lib_messages_capture(void) { snd_lib_error_set_handler(lib_message); }
+
+unsigned long hd_audio_lib_messages_take(char *first, size_t cap)
+{
+    if (cap)
+        first[0] = '\0';
+    if (atomic_load(&lib_slot) != 2)
+        return atomic_load(&lib_slot) == 0 ? atomic_exchange(&lib_count, 0) : 0;
+    snprintf(first, cap, "%s", lib_first);
+    unsigned long n = atomic_exchange(&lib_count, 0);
+    atomic_store(&lib_slot, 0);
+    return n;
+}
+
+/* ---- when a failing device is a failed one ---- */
+
+enum hd_audio_verdict hd_audio_health_write(struct hd_audio_health *h, int write_rc, uint64_t now_ns)
+{
+    if (h->stretch_start_ns && now_ns - h->last_error_ns > HD_AUDIO_ERROR_GAP_NS)
+        h->stretch_start_ns = 0; /* a second without errors: the stretch is over */
+    if (write_rc >= 0)
+        return h->stretch_start_ns ? HD_AUDIO_FAILING : HD_AUDIO_OK;
+    if (!h->stretch_start_ns)
+        h->stretch_start_ns = now_ns ? now_ns : 1;
+    h->last_error_ns = now_ns;
+    return now_ns - h->stretch_start_ns >= HD_AUDIO_GIVE_UP_NS ? HD_AUDIO_GAVE_UP : HD_AUDIO_FAILING;
+}
+
+enum hd_audio_verdict hd_audio_health_pace(uint64_t written, uint64_t start_ns, uint64_t now_ns, uint32_t rate_hz,
+                                           uint64_t buffer_frames)
+{
+    const uint64_t elapsed_ns = now_ns > start_ns ? now_ns - start_ns : 0;
+    /* 5 % over the elapsed time: a real device's clock runs a few ppm off
+     * CLOCK_MONOTONIC, which over days adds up to more than any fixed slack. */
+    const double can_take =
+        ((double)elapsed_ns * 1.05 + (double)HD_AUDIO_AHEAD_NS) * 1e-9 * rate_hz + (double)buffer_frames;
+    return (double)written > can_take ? HD_AUDIO_UNPACED : HD_AUDIO_OK;
 }

@@ -83,4 +83,42 @@ int hd_audio_poll_ready(struct hd_audio *a, struct pollfd *pfd, int n);
 /* Stop: drain (play what is queued) or drop it. */
 void hd_audio_close(struct hd_audio *a, int drain);
 
+/* libasound's own messages. By default it prints them to stderr, several
+ * lines per failure and one per failed write (hundreds a second from a
+ * plugin that cannot write its file). Once hd_audio_lib_messages_capture()
+ * ran, they are kept instead: the first one's text and a count, written
+ * without locks or allocation (the audio thread may be the one that fails),
+ * and hapticd logs them through its own log: hd_audio_lib_messages_take()
+ * returns how many came since the last take and the first of them. */
+void hd_audio_lib_messages_capture(void);
+unsigned long hd_audio_lib_messages_take(char *first, size_t cap);
+
+/* When a device that fails is a failed device. A write error (the audio
+ * thread's period could not be written) opens a failing stretch; an error
+ * within HD_AUDIO_ERROR_GAP_NS of the previous one continues it, however
+ * many periods succeeded between them (a plugin that fails every other
+ * write is failing); the stretch lasting HD_AUDIO_GIVE_UP_NS gives up.
+ * Device pacing on a PCM that never blocks (the null plugin: it takes frames
+ * faster than any clock) is detected too: more frames written than the
+ * time since the start, plus 5 % (clock drift) and HD_AUDIO_AHEAD_NS, can
+ * have played. Pure: real-time safe. */
+#define HD_AUDIO_ERROR_GAP_NS 1000000000ull
+#define HD_AUDIO_GIVE_UP_NS 3000000000ull
+#define HD_AUDIO_AHEAD_NS 1000000000ull
+
+enum hd_audio_verdict { HD_AUDIO_OK = 0, HD_AUDIO_FAILING, HD_AUDIO_GAVE_UP, HD_AUDIO_UNPACED };
+
+struct hd_audio_health {
+    uint64_t stretch_start_ns;   /* first error of the current failing stretch; 0: none */
+    uint64_t last_error_ns;
+};
+
+/* A period's outcome at now_ns: write_rc from hd_audio_write. */
+enum hd_audio_verdict hd_audio_health_write(struct hd_audio_health *h, int write_rc, uint64_t now_ns);
+/* Device pacing: `written` frames since the stream started at start_ns, at
+ * rate_hz, with a buffer of buffer_frames: HD_AUDIO_UNPACED if the device
+ * took more than it can have played by now_ns plus HD_AUDIO_AHEAD_NS. */
+enum hd_audio_verdict hd_audio_health_pace(uint64_t written, uint64_t start_ns, uint64_t now_ns, uint32_t rate_hz,
+                                           uint64_t buffer_frames);
+
 #endif

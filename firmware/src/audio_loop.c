@@ -78,7 +78,7 @@ void *hd_audio_loop_run(void *arg)
         for (int i = 0; i < l->alsa_pfd_count; i++)
             pfd[nfds++] = l->alsa_pfd[i];
     }
-    int failures = 0;
+    struct hd_audio_health health = {0};
     while (atomic_load_explicit(&l->running, memory_order_relaxed)) {
         /* Sleep until a trigger arrives or a period is due: the device has
          * room (device pacing), or the emulated device has played a period
@@ -108,16 +108,23 @@ void *hd_audio_loop_run(void *arg)
         }
         if (!due)
             continue;
-        if (audio_step(l) < 0) {
+        const int rc = audio_step(l);
+        const uint64_t now = hd_now_ns();
+        enum hd_audio_verdict v = hd_audio_health_write(&health, rc, now);
+        if (v == HD_AUDIO_OK && !l->clock_paced)
+            v = hd_audio_health_pace(l->audio->written, l->audio->start_ns, now, l->audio->rate_hz,
+                                     l->audio->buffer_frames);
+        if (v == HD_AUDIO_GAVE_UP || v == HD_AUDIO_UNPACED) {
+            /* The main thread logs it and ends the daemon (non-zero exit). */
+            atomic_store(&l->failed, (int)v);
+            break;
+        }
+        if (rc < 0) {
             /* Counted in write_errors and logged by the main thread; back off
              * one period so a dead device does not spin the CPU. */
-            if (++failures == 1000)
-                atomic_store(&l->failed, 1);
             struct timespec ts = {0, (long)period_ns};
             clock_nanosleep(CLOCK_MONOTONIC, 0, &ts, NULL);
-            continue;
         }
-        failures = 0;
     }
     return NULL;
 }

@@ -25,7 +25,7 @@ struct hd_audio_loop {
     int alsa_pfd_count;
     void *render_buf;         /* one period in the device format */
     atomic_int running;
-    atomic_int failed;        /* 1000 periods in a row could not be written */
+    atomic_int failed;        /* the device failed (an enum hd_audio_verdict: GAVE_UP, UNPACED); the thread ended */
 };
 
 /* pthread entry point; arg is a struct hd_audio_loop. Runs while `running`. */

@@ -70,6 +70,9 @@ struct daemon {
     double next_poll_s;       /* CLOCK_MONOTONIC time of the next temperature reading */
     int sensor_failing;       /* the last reading failed (logged once per failing stretch) */
     struct hd_program *latest; /* the program handed over last: what a temperature step stretches again */
+    unsigned long lib_pending;     /* libasound messages not logged yet */
+    char lib_pending_first[512];   /* the first of them */
+    double lib_next_log_s;         /* no libasound line before this time */
 };
 
 static void usage(FILE *f)
@@ -386,6 +389,35 @@ static void stop_live(struct daemon *d, pthread_t audio, pthread_t trig)
     pthread_join(audio, NULL);
 }
 
+static const char *device_name(const struct daemon *d)
+{
+    return d->opt.alsa_device ? d->opt.alsa_device : d->board.alsa_device;
+}
+
+/* libasound's own messages (audio_alsa.h), through hapticd's log: the first
+ * of a burst, then at most one summary each 10 s. */
+static void log_lib_messages(struct daemon *d)
+{
+    char first[512];
+    unsigned long n = hd_audio_lib_messages_take(first, sizeof first);
+    d->lib_pending += n;
+    if (!first[0] && !d->lib_pending_first[0])
+        return;
+    if (first[0] && !d->lib_pending_first[0])
+        snprintf(d->lib_pending_first, sizeof d->lib_pending_first, "%s", first);
+    const double now = monotonic_s();
+    if (now < d->lib_next_log_s)
+        return;
+    if (d->lib_pending > 1)
+        hd_log(LOG_WARNING, "libasound: %s (%lu messages from it since the last report)", d->lib_pending_first,
+               d->lib_pending);
+    else
+        hd_log(LOG_WARNING, "libasound: %s", d->lib_pending_first);
+    d->lib_pending = 0;
+    d->lib_pending_first[0] = '\0';
+    d->lib_next_log_s = now + 10.0;
+}
+
 static int run_live(struct daemon *d)
 {
     sigset_t set;
@@ -451,8 +483,17 @@ static int run_live(struct daemon *d)
         else if (sig == SIGTERM || sig == SIGINT)
             break;
         poll_temperature(d);
-        if (atomic_load(&d->player.failed)) {
-            hd_log(LOG_ERR, "ALSA device keeps failing: giving up");
+        log_lib_messages(d);
+        const int failed = atomic_load(&d->player.failed);
+        if (failed) {
+            if (failed == HD_AUDIO_UNPACED)
+                hd_log(LOG_ERR, "ALSA device '%s' takes frames faster than real time: it does not pace the stream "
+                                "([alsa] pacing = device in %s; a plugin such as null or file needs pacing = clock)",
+                       device_name(d), d->board.path);
+            else
+                hd_log(LOG_ERR, "ALSA device '%s' failed for %.0f s without a second's rest: giving up", device_name(d),
+                       (double)HD_AUDIO_GIVE_UP_NS * 1e-9);
+            d->opt.drop = 1; /* nothing plays the voices in flight any more */
             status = 1;
             break;
         }
@@ -467,12 +508,24 @@ int main(int argc, char **argv)
 {
     if (argc == 3 && strcmp(argv[1], "--check") == 0)
         return check_table(argv[2]);
+    /* SIGHUP and SIGTERM wait from the first instruction on: blocked here
+     * (every thread inherits the mask), taken by run_live's sigtimedwait.
+     * One that comes while the daemon starts is acted on as soon as it runs
+     * (a reload of what was just loaded, or a stop) instead of killing it
+     * without a word, which systemd would count as a clean exit. */
+    sigset_t early;
+    sigemptyset(&early);
+    sigaddset(&early, SIGHUP);
+    sigaddset(&early, SIGTERM);
+    sigaddset(&early, SIGINT);
+    sigprocmask(SIG_BLOCK, &early, NULL);
     static struct daemon d; /* large (ring, latency record): not on the stack */
     int rc = parse_args(argc, argv, &d.opt);
     if (rc)
         return rc;
     signal(SIGPIPE, SIG_IGN);
     hd_log_use_syslog(d.opt.use_syslog);
+    hd_audio_lib_messages_capture();
     char err[HD_ERR_MAX];
     if (hd_board_load(d.opt.board, &d.board, err) != 0) {
         hd_log(LOG_ERR, "%s", err);
@@ -519,7 +572,12 @@ int main(int argc, char **argv)
         goto out_engine;
     }
     if (hd_audio_open(&d.audio, &d.board, d.opt.alsa_device, err) != 0) {
-        hd_log(LOG_ERR, "%s", err);
+        /* One line: hapticd's, with libasound's first word on it. */
+        char lib[512];
+        if (hd_audio_lib_messages_take(lib, sizeof lib) && lib[0])
+            hd_log(LOG_ERR, "%s (libasound: %s)", err, lib);
+        else
+            hd_log(LOG_ERR, "%s", err);
         goto out_engine;
     }
     if (d.audio.period_frames > d.board.period_frames) {
@@ -540,6 +598,8 @@ int main(int argc, char **argv)
            (unsigned long)d.audio.buffer_frames, 1e3 * (double)d.audio.buffer_frames / d.audio.rate_hz,
            table_path(&d));
     if (d.opt.script) {
+        /* Unpaced and short: a signal ends it as it always did. */
+        sigprocmask(SIG_UNBLOCK, &early, NULL);
         chain_for(&d, d.engine.current, 0);
         status = hd_audio_loop_script(&d.player, &script, d.opt.tail_frames,
                                       d.opt.alsa_device ? d.opt.alsa_device : d.board.alsa_device);

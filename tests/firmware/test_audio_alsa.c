@@ -72,10 +72,12 @@ snd_pcm_sframes_t __wrap_snd_pcm_forward(snd_pcm_t *pcm, snd_pcm_uframes_t frame
     forward_asked = frames;
     return forward_result == 0 ? (snd_pcm_sframes_t)frames : forward_result;
 }
+static int open_mode, open_result = -ENOENT;
 int __wrap_snd_pcm_open(snd_pcm_t **pcm, const char *name, snd_pcm_stream_t stream, int mode)
 {
-    (void)pcm, (void)name, (void)stream, (void)mode;
-    return -ENOENT;
+    (void)pcm, (void)name, (void)stream;
+    open_mode = mode;
+    return open_result;
 }
 
 static struct hd_audio fake(void)
@@ -364,6 +366,92 @@ static void open_failure_names_device_and_board(void **state)
     assert_non_null(strstr(err, "'hw:9'"));
 }
 
+/* The open never waits for a device another program holds (a blocking
+ * open() would, and SIGTERM could not reach the drain): non-blocking, and
+ * EBUSY says who is in the way. */
+static void open_does_not_wait_for_a_busy_device(void **state)
+{
+    (void)state;
+    struct hd_board b;
+    hd_board_defaults(&b);
+    strcpy(b.path, "board.ini");
+    strcpy(b.alsa_device, "hw:0");
+    struct hd_audio a;
+    char err[HD_ERR_MAX] = "";
+    open_result = -EBUSY;
+    assert_int_equal(hd_audio_open(&a, &b, NULL, err), -EBUSY);
+    open_result = -ENOENT;
+    assert_true(open_mode & SND_PCM_NONBLOCK);
+    assert_non_null(strstr(err, "(another program is using it)"));
+}
+
+/* A failing device: errors within a second of each other make one stretch,
+ * whatever succeeded between them; 3 s of it gives up; a second without an
+ * error ends the stretch. */
+static void failing_device_policy(void **state)
+{
+    (void)state;
+    const uint64_t ms = 1000000u;
+    struct hd_audio_health h = {0};
+    assert_int_equal(hd_audio_health_write(&h, 0, 5 * ms), HD_AUDIO_OK);
+    /* An error every other period (a plugin failing half its writes). */
+    uint64_t t = 1000 * ms;
+    for (; t < 1000 * ms + 2999 * ms; t += ms)
+        assert_int_not_equal(hd_audio_health_write(&h, (t / ms) % 2 ? 0 : -EIO, t), HD_AUDIO_GAVE_UP);
+    assert_int_equal(hd_audio_health_write(&h, -EIO, t + ms), HD_AUDIO_GAVE_UP);
+    /* Errors 0.9 s apart keep one stretch; 1.1 s apart never give up. */
+    h = (struct hd_audio_health){0};
+    enum hd_audio_verdict v = HD_AUDIO_OK;
+    for (t = 10000 * ms; t <= 10000 * ms + 2700 * ms; t += 900 * ms)
+        v = hd_audio_health_write(&h, -EIO, t);
+    assert_int_equal(v, HD_AUDIO_FAILING);
+    assert_int_equal(hd_audio_health_write(&h, -EIO, t), HD_AUDIO_GAVE_UP); /* 3.6 s */
+    h = (struct hd_audio_health){0};
+    for (t = 20000 * ms; t < 20000 * ms + 30000 * ms; t += 1100 * ms)
+        assert_int_equal(hd_audio_health_write(&h, -EIO, t), HD_AUDIO_FAILING);
+    assert_int_equal(hd_audio_health_write(&h, 0, t + 1200 * ms), HD_AUDIO_OK); /* the stretch is over */
+}
+
+/* A PCM that takes frames faster than it can play them does not pace. */
+static void unpaced_device_is_detected(void **state)
+{
+    (void)state;
+    const uint64_t s0 = 7000000000u;
+    /* A real device: 1 s at 48 kHz has taken at most 48000 + its buffer. */
+    assert_int_equal(hd_audio_health_pace(48000 + 128, s0, s0 + 1000000000u, 48000, 128), HD_AUDIO_OK);
+    /* A day later, its clock 100 ppm fast: still a device. */
+    const uint64_t day = 86400ull * 1000000000u;
+    assert_int_equal(hd_audio_health_pace((uint64_t)(86400.0 * 48000 * 1.0001), s0, s0 + day, 48000, 128),
+                     HD_AUDIO_OK);
+    /* The null plugin: 10 s of frames in 0.1 s. */
+    assert_int_equal(hd_audio_health_pace(480000, s0, s0 + 100000000u, 48000, 128), HD_AUDIO_UNPACED);
+    /* The bound: 1 s ahead (+5 % of the elapsed time) and the buffer. */
+    assert_int_equal(hd_audio_health_pace(48000 + 128, s0, s0, 48000, 128), HD_AUDIO_OK);
+    assert_int_equal(hd_audio_health_pace(48000 + 129, s0, s0, 48000, 128), HD_AUDIO_UNPACED);
+}
+
+/* libasound's messages, once captured, are kept (the first one's text and a
+ * count) instead of printed, and handed over once. */
+static void library_messages_are_kept_for_the_log(void **state)
+{
+    (void)state;
+    hd_audio_lib_messages_capture();
+    char first[512];
+    (void)hd_audio_lib_messages_take(first, sizeof first);
+    snd_pcm_t *pcm;
+    /* The real open (not wrapped: snd_pcm_open_lconf) with an empty local
+     * config: libasound reports the unknown PCM through its handler. */
+    snd_config_t *top;
+    assert_int_equal(snd_config_top(&top), 0);
+    assert_true(snd_pcm_open_lconf(&pcm, "nosuchpcm", SND_PCM_STREAM_PLAYBACK, 0, top) < 0);
+    snd_config_delete(top);
+    unsigned long n = hd_audio_lib_messages_take(first, sizeof first);
+    assert_true(n >= 1);
+    assert_non_null(strstr(first, "Unknown PCM nosuchpcm"));
+    assert_int_equal(hd_audio_lib_messages_take(first, sizeof first), 0); /* handed over once */
+    assert_string_equal(first, "");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -372,6 +460,10 @@ int main(void)
         cmocka_unit_test_setup(failed_recovery_is_reported, reset),
         cmocka_unit_test_setup(other_errors_and_partial_writes, reset),
         cmocka_unit_test_setup(open_failure_names_device_and_board, reset),
+        cmocka_unit_test_setup(open_does_not_wait_for_a_busy_device, reset),
+        cmocka_unit_test(failing_device_policy),
+        cmocka_unit_test(unpaced_device_is_detected),
+        cmocka_unit_test(library_messages_are_kept_for_the_log),
         cmocka_unit_test_setup(rewind_keeps_margin_and_limit, reset),
         cmocka_unit_test_setup(nothing_rewindable_rewinds_nothing, reset),
         cmocka_unit_test_setup(rewindable_errors, reset),
