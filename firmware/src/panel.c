@@ -10,15 +10,24 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 int hd_panel_read_celsius(const char *path, double *celsius, char err[HD_ERR_MAX])
 {
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    /* Non-blocking and a regular file (sysfs attributes are): a FIFO at the
+     * path would block the main thread, and with it the signals, forever. */
+    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
     if (fd < 0) {
         int e = errno;
         snprintf(err, HD_ERR_MAX, "%s: %s", path, strerror(e));
         return -e;
+    }
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        snprintf(err, HD_ERR_MAX, "%s: not a regular file (a temperature input is a sysfs attribute)", path);
+        return -EINVAL;
     }
     char buf[32];
     ssize_t n = read(fd, buf, sizeof buf - 1);

@@ -16,6 +16,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <setjmp.h>
@@ -72,6 +73,17 @@ static void temperature_files_are_read_as_the_kernel_writes_them(void **state)
     snprintf(missing, sizeof missing, "%s/none", tmp);
     assert_int_equal(hd_panel_read_celsius(missing, &t, err), -ENOENT);
     assert_non_null(strstr(err, missing));
+    /* A FIFO (it would block the main thread until a writer came) and a
+     * directory: refused at once. */
+    char fifo[300];
+    snprintf(fifo, sizeof fifo, "%s/fifo", tmp);
+    assert_int_equal(mkfifo(fifo, 0600), 0);
+    alarm(10);
+    assert_int_equal(hd_panel_read_celsius(fifo, &t, err), -EINVAL);
+    assert_non_null(strstr(err, "not a regular file"));
+    assert_int_equal(hd_panel_read_celsius(tmp, &t, err), -EINVAL);
+    alarm(0);
+    assert_int_equal(unlink(fifo), 0);
 }
 
 static void the_speed_ratio_is_the_boards_times_the_temperatures(void **state)
