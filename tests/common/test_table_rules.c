@@ -222,6 +222,74 @@ static void off_diagonal_check_follows_the_documented_cost_bound(void **state)
     }
 }
 
+/* Cauchy-Schwarz exactly as documented, fabs(g_ij) <= sqrt(g_ii g_jj) (1.0 + 1e-9),
+ * on a table above the off-diagonal cost bound, where the structure check is
+ * all that holds the off-diagonal: every element of same_signal_table is E,
+ * so the bound is E (1 + 1e-9) in binary64; the bound itself is accepted, the
+ * next double above it (and a violation of 1e-6) refused, at gram[1][0]. */
+static void cauchy_schwarz_slack_is_1e_9_above_the_cost_bound(void **state)
+{
+    (void)state;
+    uint8_t *b, *w;
+    uint64_t gr;
+    size_t size = same_signal_table(1024, 8201, &b, &gr);
+    w = malloc(size);
+    const double e = get_f64(b + gr);
+    const double bound = sqrt(e * e) * (1.0 + 1e-9);
+    assert_true(e == 27344700.0 && bound > e); /* 41 x 666700 + 100^2; the bound a true violation */
+    struct { double g; int want; } cases[] = {
+        {bound, 0},
+        {-bound, 0},
+        {nextafter(bound, INFINITY), HAPTIC_TABLE_EGRAM},
+        {-nextafter(bound, INFINITY), HAPTIC_TABLE_EGRAM},
+        {e * (1.0 + 1e-6), HAPTIC_TABLE_EGRAM},
+        {e * (1.0 + 1e-4), HAPTIC_TABLE_EGRAM},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        memcpy(w, b, size);
+        put_f64(w + gr + 8, cases[i].g);        /* gram[0][1] */
+        put_f64(w + gr + 1024 * 8, cases[i].g); /* gram[1][0] */
+        char what[40];
+        snprintf(what, sizeof what, "Cauchy-Schwarz case %zu", i);
+        expect(w, size, cases[i].want, cases[i].want ? "violates Cauchy-Schwarz" : NULL,
+               cases[i].want ? gr + 1024 * 8 : UINT64_MAX, what);
+    }
+    free(w);
+    free(b);
+}
+
+/* Within the bound a Cauchy-Schwarz violation is named by the structure
+ * check (step 11), before the payload comparison (step 13) could say it:
+ * |G01| <= sqrt(25 * 1073741825) (1 + 1e-9) = 163840.000171 in tiny_table. */
+static void cauchy_schwarz_is_named_before_the_payload_comparison(void **state)
+{
+    (void)state;
+    uint8_t *b;
+    size_t size = tiny_table(&b);
+    uint64_t gr = le64(b + 64);
+    put_f64(b + gr + 8, -163840.5);
+    put_f64(b + gr + 16, -163840.5);
+    expect(b, size, HAPTIC_TABLE_EGRAM, "violates Cauchy-Schwarz", gr + 16, "|G01| 163840.5");
+    put_f64(b + gr + 8, -163840.0); /* within: then the payload says */
+    put_f64(b + gr + 16, -163840.0);
+    expect(b, size, HAPTIC_TABLE_EGRAM, "the payload gives -98300", gr + 16, "|G01| 163840");
+    /* An infinite element is refused as not finite even where the bound is
+     * infinite too: diagonals (and energies) of 1e200 make sqrt(g00 g11)
+     * overflow; the payload would name gram[0][0] only later. */
+    const uint64_t fo = le64(b + 56);
+    put_f64(b + gr, 1e200);
+    put_f64(b + fo + 32, 1e200);
+    put_f64(b + gr + 24, 1e200);
+    put_f64(b + fo + 48 + 32, 1e200);
+    put_f64(b + gr + 8, INFINITY);
+    put_f64(b + gr + 16, INFINITY);
+    expect(b, size, HAPTIC_TABLE_EGRAM, "gram[1][0]", gr + 16, "G01 infinite, bound infinite");
+    put_f64(b + gr + 8, 1e300); /* finite: held by the bound (inf) alone, so the payload names the diagonal */
+    put_f64(b + gr + 16, 1e300);
+    expect(b, size, HAPTIC_TABLE_EGRAM, "gram[0][0]", gr, "G01 1e300, bound infinite");
+    free(b);
+}
+
 static void focus_ids_0_and_ffffffff_are_ordinary_and_repeats_are_named(void **state)
 {
     (void)state;
@@ -530,6 +598,191 @@ static void faults_are_reported_in_the_documented_order(void **state)
     table_fixture_free(&fx);
 }
 
+/* A copy of table b with n zero bytes inserted at `at`: every section offset
+ * at or after `at` and file_size move by n, the CRC is re-made. */
+static uint8_t *insert_zeros(const uint8_t *b, size_t size, uint64_t at, size_t n)
+{
+    uint8_t *w = calloc(1, size + n);
+    memcpy(w, b, at);
+    memcpy(w + at + n, b + at, size - at);
+    put(w + 40, 8, size + n);
+    static const size_t offset_fields[] = {48, 56, 64, 72, 80, 96, 104};
+    for (size_t i = 0; i < sizeof offset_fields / sizeof *offset_fields; i++) {
+        uint64_t off = le64(w + offset_fields[i]);
+        if (off != 0 && off >= at)
+            put(w + offset_fields[i], 8, off + n);
+    }
+    table_fixture_fix_crc(w, size + n);
+    return w;
+}
+
+static size_t fixture_table(uint8_t **b)
+{
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 2, 16, 21);
+    size_t size = table_fixture_encode(&fx, b);
+    table_fixture_free(&fx);
+    assert_true(size > 0);
+    return size;
+}
+
+/* Step 5: the payload ends exactly where the CRC trailer starts. Bytes between
+ * them (zero or not, the CRC covering them) are refused at payload_offset;
+ * the payload itself may lie later than the writer puts it, behind a zero gap. */
+static void payload_ends_exactly_at_the_crc_trailer(void **state)
+{
+    (void)state;
+    uint8_t *b;
+    size_t size = fixture_table(&b);
+    const uint64_t pl = le64(b + 80), ps = le64(b + 88);
+    assert_true(pl + ps == size - 4);
+    const size_t extra[] = {1, 2, 8, 64};
+    for (size_t i = 0; i < sizeof extra / sizeof *extra; i++) {
+        uint8_t *w = insert_zeros(b, size, size - 4, extra[i]);
+        expect(w, size + extra[i], HAPTIC_TABLE_ELAYOUT, "payload must end where the CRC trailer starts", 80,
+               "zero bytes before the trailer");
+        memset(w + size - 4, 0xA5, extra[i]);
+        expect(w, size + extra[i], HAPTIC_TABLE_ELAYOUT, "payload must end where the CRC trailer starts", 80,
+               "unchecked bytes before the trailer");
+        free(w);
+    }
+    uint8_t *w = insert_zeros(b, size, pl, 64); /* payload 64 bytes later, ending at the trailer */
+    assert_int_equal(le64(w + 80), pl + 64);
+    expect(w, size + 64, 0, NULL, UINT64_MAX, "payload moved by 64");
+    free(w);
+    free(b);
+}
+
+/* Step 5: the payload is 64-byte aligned (the other sections 8-byte). A
+ * payload moved by a multiple of 8 that is not one of 64, behind a zero gap,
+ * is refused at payload_offset; moved by 64 it is accepted. */
+static void payload_offset_is_a_multiple_of_64(void **state)
+{
+    (void)state;
+    uint8_t *b;
+    size_t size = fixture_table(&b);
+    const uint64_t pl = le64(b + 80);
+    assert_int_equal(pl % 64, 0);
+    const size_t shift[] = {2, 8, 16, 32, 48, 56, 64, 128};
+    for (size_t i = 0; i < sizeof shift / sizeof *shift; i++) {
+        uint8_t *w = insert_zeros(b, size, pl, shift[i]);
+        char what[40];
+        snprintf(what, sizeof what, "payload moved by %zu", shift[i]);
+        if (shift[i] % 64 == 0)
+            expect(w, size + shift[i], 0, NULL, UINT64_MAX, what);
+        else
+            expect(w, size + shift[i], HAPTIC_TABLE_ELAYOUT, "is not a multiple of 64", 80, what);
+        free(w);
+    }
+    free(b);
+}
+
+/* Which code a size fault gets: a file shorter than its header or its
+ * file_size says is truncated (ETRUNC: at the file's length inside the
+ * header, at file_size's offset 40 after it); a file longer than its
+ * file_size, or whose sections disagree with the counts, is a layout fault
+ * (ELAYOUT). */
+static void truncation_is_etrunc_and_inconsistent_layout_is_elayout(void **state)
+{
+    (void)state;
+    uint8_t *b;
+    size_t size = fixture_table(&b);
+    haptic_table_error err;
+    for (size_t len = 0; len < size; len++) {
+        int rc = check(b, len, &err);
+        uint64_t at = len < 128 ? len : 40;
+        const char *needle = len < 128 ? "ends inside the header" : "(file_size): header says";
+        if (rc != HAPTIC_TABLE_ETRUNC || err.offset != at || !strstr(err.message, needle))
+            fail_msg("truncated to %zu of %zu: rc %d at %llu (%s), want ETRUNC at %llu", len, size, rc,
+                     (unsigned long long)err.offset, err.message, (unsigned long long)at);
+    }
+    const size_t extra[] = {1, 4, 64};
+    for (size_t i = 0; i < sizeof extra / sizeof *extra; i++) {
+        uint8_t *w = calloc(1, size + extra[i]);
+        memcpy(w, b, size);
+        int rc = check(w, size + extra[i], &err);
+        if (rc != HAPTIC_TABLE_ELAYOUT || err.offset != 40 || !strstr(err.message, "(file_size): header says"))
+            fail_msg("%zu bytes appended: rc %d at %llu (%s), want ELAYOUT at 40", extra[i], rc,
+                     (unsigned long long)err.offset, err.message);
+        free(w);
+    }
+    /* A file_size below or above the real size, the CRC re-made. */
+    uint8_t *w = malloc(size);
+    memcpy(w, b, size);
+    put(w + 40, 8, size - 8);
+    expect(w, size, HAPTIC_TABLE_ELAYOUT, "(file_size): header says", 40, "file_size too small");
+    put(w + 40, 8, size + 8);
+    expect(w, size, HAPTIC_TABLE_ETRUNC, "(file_size): header says", 40, "file_size too large");
+    /* payload_size that disagrees with the counts. */
+    memcpy(w, b, size);
+    put(w + 88, 8, le64(b + 88) + 2);
+    expect(w, size, HAPTIC_TABLE_ELAYOUT, "(payload_size)", 88, "payload_size + 2");
+    free(w);
+    free(b);
+}
+
+/* header_size: 128 in a known minor; in a later one (1.3 here) a multiple
+ * of 8 in 128..4096, the channels section at or after it. The sections are
+ * moved 64 bytes later so header sizes up to 192 fit. */
+static void header_size_of_a_later_minor_is_a_multiple_of_8(void **state)
+{
+    (void)state;
+    uint8_t *b;
+    size_t size = fixture_table(&b);
+    uint8_t *w = insert_zeros(b, size, 128, 64);
+    size += 64;
+    assert_int_equal(le64(w + 48), 192);
+    struct { uint16_t minor; uint32_t header_size; int want; uint64_t at; const char *needle; } cases[] = {
+        {2, 128, 0, 0, NULL},
+        {2, 136, HAPTIC_TABLE_EFIELD, 12, "version 1.2 has 128"},
+        {3, 128, 0, 0, NULL},
+        {3, 136, 0, 0, NULL},
+        {3, 192, 0, 0, NULL},
+        {3, 129, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {3, 132, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {3, 188, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {3, 191, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {3, 120, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {3, 4104, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {3, 200, HAPTIC_TABLE_ELAYOUT, 48, "channels_offset"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        put(w + 10, 2, cases[i].minor);
+        put(w + 12, 4, cases[i].header_size);
+        char what[48];
+        snprintf(what, sizeof what, "1.%u header_size %lu", (unsigned)cases[i].minor,
+                 (unsigned long)cases[i].header_size);
+        expect(w, size, cases[i].want, cases[i].needle, cases[i].want ? cases[i].at : UINT64_MAX, what);
+    }
+    free(w);
+    free(b);
+}
+
+/* Focus scale_m: finite, 0 < scale_m <= 1000 (0 and -0 refused, the
+ * smallest positive double accepted). */
+static void focus_scale_m_is_positive_and_at_most_1000(void **state)
+{
+    (void)state;
+    uint8_t *b;
+    size_t size = fixture_table(&b);
+    uint8_t *w = malloc(size);
+    const uint64_t at = le64(b + 56) + 48 + 24; /* focus 1 scale_m */
+    struct { double v; int ok; } cases[] = {
+        {0.0, 0}, {-0.0, 0}, {4.9406564584124654e-324, 1}, {2.2250738585072014e-308, 1}, {1e-5, 1},
+        {1000.0, 1}, {nextafter(1000.0, 2000.0), 0}, {-1e-5, 0}, {INFINITY, 0}, {NAN, 0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        memcpy(w, b, size);
+        put_f64(w + at, cases[i].v);
+        char what[40];
+        snprintf(what, sizeof what, "scale_m case %zu (%g)", i, cases[i].v);
+        expect(w, size, cases[i].ok ? 0 : HAPTIC_TABLE_EFIELD, cases[i].ok ? NULL : "focus 1 scale_m",
+               cases[i].ok ? UINT64_MAX : at, what);
+    }
+    free(w);
+    free(b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -537,6 +790,8 @@ int main(void)
         cmocka_unit_test(an_altered_gram_or_payload_under_a_fresh_crc_is_refused),
         cmocka_unit_test(energy_above_2_pow_53_is_the_exact_sum_rounded_once),
         cmocka_unit_test(off_diagonal_check_follows_the_documented_cost_bound),
+        cmocka_unit_test(cauchy_schwarz_slack_is_1e_9_above_the_cost_bound),
+        cmocka_unit_test(cauchy_schwarz_is_named_before_the_payload_comparison),
         cmocka_unit_test(focus_ids_0_and_ffffffff_are_ordinary_and_repeats_are_named),
         cmocka_unit_test(reserved_bytes_and_gaps_are_zero_up_to_the_known_minor),
         cmocka_unit_test(provenance_text_is_checked_as_documented),
@@ -545,6 +800,11 @@ int main(void)
         cmocka_unit_test(a_format_1_0_table_still_loads),
         cmocka_unit_test(summary_prints_the_playback_facts),
         cmocka_unit_test(faults_are_reported_in_the_documented_order),
+        cmocka_unit_test(payload_ends_exactly_at_the_crc_trailer),
+        cmocka_unit_test(payload_offset_is_a_multiple_of_64),
+        cmocka_unit_test(truncation_is_etrunc_and_inconsistent_layout_is_elayout),
+        cmocka_unit_test(header_size_of_a_later_minor_is_a_multiple_of_8),
+        cmocka_unit_test(focus_scale_m_is_positive_and_at_most_1000),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -387,6 +387,102 @@ static void program_lead_time_is_the_largest_focus_lead(void **state)
     fw_table_free(&t);
 }
 
+/* Two foci of two channels, each 2000 on both channels in its own third of
+ * frames 0..383 (blocks 0-5: one focus per block, so P = 2000 there), and
+ * 30000 on channel 1 in one frame of both: the only loud samples, summing to
+ * 60000, lie in one peak block: the final one (partial at N = 394: 10
+ * frames; full at N = 448) or the first. The energy gain, sqrt(E_ref / E_sum)
+ * = sqrt(2.436e9 / 6.672e9) = 0.604, would play that frame at 36,250, so the
+ * peak limit 32767 / 60000 must bind; then it plays at exactly 32767. */
+static void a_mix_loud_only_in_its_last_or_first_peak_block_is_limited(void **state)
+{
+    (void)state;
+    const struct { uint32_t frames, loud; } cases[] = {{394, 393}, {448, 447}, {394, 0}};
+    for (int i = 0; i < 3; i++) {
+        const uint32_t n_frames = cases[i].frames, loud = cases[i].loud;
+        struct fw_table t;
+        fw_table_make(&t, 2, 2, n_frames, FW_CONSTANT, 1, 1);
+        for (uint32_t f = 0; f < 2; f++)
+            for (uint32_t n = 0; n < n_frames; n++)
+                for (uint32_t c = 0; c < 2; c++) {
+                    int16_t v = n < 384 && n / 192 == f ? 2000 : 0;
+                    if (n == loud && c == 1)
+                        v = 30000;
+                    t.samples_buf[((size_t)f * n_frames + n) * 2 + c] = v;
+                }
+        fw_table_encode(&t, NULL);
+        struct hd_board b;
+        fw_board(&b, 2, HD_FMT_S16_LE, 64);
+        struct hd_program *p;
+        char err[HD_ERR_MAX];
+        assert_int_equal(hd_program_from_table(&t.table, &b, &p, err), 0);
+        assert_int_equal(p->blocks, 7);
+        const uint32_t idx[2] = {0, 1};
+        struct ref r = ref_gain(&t, idx, 2, 1.0);
+        assert_true(r.gain_peak == 32767.0 / 60000.0 && r.gain_energy > 0.6);
+        const unsigned identity[2] = {0, 1};
+        struct hd_mix m;
+        uint64_t clipped;
+        int32_t *out = render_all(&t, p, idx, 2, HD_FMT_S16_LE, 2, identity, &m, &clipped);
+        if (m.gain_peak != 32767.0 / 60000.0 || m.gain != m.gain_peak)
+            fail_msg("N=%u, loud frame %u: gain_peak %.9g (want 32767/60000), gain %.9g, gain_energy %.9g",
+                     n_frames, loud, m.gain_peak, m.gain, m.gain_energy);
+        assert_true(fabs(m.gain_energy - r.gain_energy) <= 1e-12 * r.gain_energy);
+        assert_int_equal(clipped, 0);
+        assert_int_equal(out[(size_t)loud * 2 + 1], 32767);
+        free(out);
+        hd_program_free(p);
+        fw_table_free(&t);
+    }
+}
+
+/* A voice holds up to HD_MAX_VOICE_FOCI foci: exactly that many are mixed
+ * (with the same energy gain as the reference over all of them), one more
+ * is refused; through the player, a 33rd id is dropped, not the voice. */
+static void a_voice_takes_exactly_hd_max_voice_foci(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, 2, HD_MAX_VOICE_FOCI + 1, 64, FW_RANDOM, 1000, 13);
+    struct hd_board b;
+    fw_board(&b, 2, HD_FMT_S16_LE, 64);
+    struct hd_program *p;
+    char err[HD_ERR_MAX];
+    assert_int_equal(hd_program_from_table(&t.table, &b, &p, err), 0);
+    struct {
+        struct hd_mix m;
+        uint32_t after[4]; /* zero: an index read past the array would be a valid one */
+    } z;
+    memset(&z, 0, sizeof z);
+    uint32_t idx[HD_MAX_VOICE_FOCI];
+    for (uint32_t k = 0; k < HD_MAX_VOICE_FOCI; k++)
+        idx[k] = z.m.index[k] = HD_MAX_VOICE_FOCI - k; /* foci 32..1 */
+    z.m.count = HD_MAX_VOICE_FOCI;
+    assert_int_equal(hd_mixer_gain(p, 1.0, &z.m), 0);
+    struct ref r = ref_gain(&t, idx, HD_MAX_VOICE_FOCI, 1.0);
+    assert_true(fabs(z.m.gain_energy - r.gain_energy) <= 1e-12 * r.gain_energy);
+    assert_true(fabs(z.m.gain - r.gain) <= 1e-12 * r.gain);
+    z.m.count = HD_MAX_VOICE_FOCI + 1;
+    assert_int_equal(hd_mixer_gain(p, 1.0, &z.m), -EINVAL);
+
+    struct hd_player pl;
+    assert_int_equal(hd_player_init(&pl, &b), 0);
+    uint32_t ids[HD_MAX_VOICE_FOCI + 1];
+    for (uint32_t k = 0; k <= HD_MAX_VOICE_FOCI; k++)
+        ids[k] = t.ids[k];
+    assert_int_equal(hd_player_start(&pl, p, ids, HD_MAX_VOICE_FOCI), 1);
+    assert_int_equal(pl.stats.dropped_foci, 0);
+    assert_int_equal(hd_player_start(&pl, p, ids, HD_MAX_VOICE_FOCI + 1), 1);
+    assert_int_equal(pl.stats.dropped_foci, 1);
+    unsigned full = 0;
+    for (unsigned v = 0; v < HD_MAX_VOICES; v++)
+        full += pl.voices[v].program != NULL && pl.voices[v].mix.count == HD_MAX_VOICE_FOCI;
+    assert_int_equal(full, 2);
+    hd_player_free(&pl);
+    hd_program_free(p);
+    fw_table_free(&t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -398,6 +494,8 @@ int main(void)
         cmocka_unit_test(overlapping_voices_saturate),
         cmocka_unit_test(program_checks_board),
         cmocka_unit_test(program_lead_time_is_the_largest_focus_lead),
+        cmocka_unit_test(a_mix_loud_only_in_its_last_or_first_peak_block_is_limited),
+        cmocka_unit_test(a_voice_takes_exactly_hd_max_voice_foci),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
