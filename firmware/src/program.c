@@ -51,24 +51,14 @@ static int check_against_board(const haptic_table *t, const char *path, const st
 /* The peak envelope of the drives as played (hd_program_signal). */
 static int compute_block_peaks(struct hd_program *p)
 {
-    p->blocks = (p->samples + HD_PEAK_BLOCK - 1) / HD_PEAK_BLOCK;
+    p->blocks = haptic_mix_blocks(p->samples);
     free(p->block_peak);
     p->block_peak = calloc((size_t)p->focus_count * p->blocks * p->channel_count, sizeof *p->block_peak);
     if (!p->block_peak)
         return -ENOMEM;
-    for (uint32_t f = 0; f < p->focus_count; f++) {
-        const int16_t *s = hd_program_signal(p, f);
-        uint16_t *peak = p->block_peak + (size_t)f * p->blocks * p->channel_count;
-        for (uint32_t n = 0; n < p->samples; n++) {
-            uint16_t *row = peak + (size_t)(n / HD_PEAK_BLOCK) * p->channel_count;
-            for (uint32_t c = 0; c < p->channel_count; c++) {
-                int v = s[(size_t)n * p->channel_count + c];
-                uint16_t a = (uint16_t)(v < 0 ? -v : v);
-                if (a > row[c])
-                    row[c] = a;
-            }
-        }
-    }
+    for (uint32_t f = 0; f < p->focus_count; f++)
+        haptic_mix_block_peaks(hd_program_signal(p, f), p->samples, p->channel_count,
+                               p->block_peak + (size_t)f * p->blocks * p->channel_count);
     return 0;
 }
 

@@ -9,10 +9,11 @@
 #include "hd_defs.h"
 #include "board.h"
 
+#include <haptic_mix.h>
 #include <haptic_table.h>
 #include <stdint.h>
 
-#define HD_PEAK_BLOCK 64u  /* frames per block of the peak envelope */
+#define HD_PEAK_BLOCK HAPTIC_MIX_PEAK_BLOCK /* frames per block of the peak envelope (haptic_mix.h) */
 
 struct hd_focus_key {
     uint32_t id;
