@@ -11,7 +11,7 @@ test:            ## build and run every test (default, asan, tsan, fuzz, cross, 
 bench:           ## micro-benchmarks and studies (long; figures go to docs/BENCHMARKS.md)
 	scripts/bench
 
-fuzz:            ## longer fuzzing run of the table reader (10 min per harness)
+fuzz:            ## longer fuzzing run: table reader, host trigger and board parsers (10 min per harness)
 	scripts/fuzz 600
 
 package:         ## Debian packages (hapticd, calibgen) in out/packages/

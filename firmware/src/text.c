@@ -34,6 +34,10 @@ size_t hd_text_utf8_sequence(const unsigned char *s, size_t n)
     return len;
 }
 
+/* U+0080..U+009F (C2 80..C2 9F): the C1 controls, CSI and NEL among them;
+ * valid UTF-8, but control characters all the same. */
+static int is_c1(const unsigned char *s) { return s[0] == 0xC2 && s[1] < 0xA0; }
+
 size_t hd_text_escape(char *dst, size_t cap, const char *src, size_t len)
 {
     static const char hex[] = "0123456789abcdef";
@@ -51,7 +55,7 @@ size_t hd_text_escape(char *dst, size_t cap, const char *src, size_t len)
             need = 2;
         } else if (c >= 0x20 && c < 0x7F) {
             need = 1;
-        } else if (c >= 0x80 && (take = hd_text_utf8_sequence(s + in, len - in)) != 0) {
+        } else if (c >= 0x80 && (take = hd_text_utf8_sequence(s + in, len - in)) != 0 && !is_c1(s + in)) {
             need = take;
         } else {
             take = 1;
@@ -89,6 +93,8 @@ const char *hd_text_check_line(const char *line, size_t len, size_t *column)
         size_t n = hd_text_utf8_sequence(s + i, len - i);
         if (!n)
             return "a byte that is not UTF-8";
+        if (is_c1(s + i))
+            return "a control byte";
         i += n;
     }
     return NULL;

@@ -1,8 +1,10 @@
 /* text.h - what counts as text in what hapticd is given (trigger lines,
  * board files) and how anything else is shown: printable ASCII, tab and
- * valid UTF-8 are text; every other byte (control bytes, DEL, NUL, bytes of
- * no valid UTF-8 sequence: a lone continuation byte, an overlong form, a
- * surrogate, a cut sequence) is shown as \xNN, and a backslash as \\.
+ * valid UTF-8 but the C1 controls (U+0080..U+009F: CSI and NEL act on
+ * terminals too) are text; every other byte (control bytes, DEL, NUL, the
+ * C1 controls' bytes, bytes of no valid UTF-8 sequence: a lone continuation
+ * byte, an overlong form, a surrogate, a cut sequence) is shown as \xNN, and
+ * a backslash as \\.
  * Pure functions: no allocation, no I/O. */
 #ifndef HD_TEXT_H
 #define HD_TEXT_H

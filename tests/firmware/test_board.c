@@ -316,6 +316,7 @@ static void long_lines_and_raw_bytes_are_refused_on_their_line(void **state)
         {"[alsa]\n\ndevice = caf\xe9\n", "t/board.ini:3: a byte that is not UTF-8 at column 13"},
         {"[alsa]\n; \xc0\xaf overlong\n", "t/board.ini:2: a byte that is not UTF-8 at column 3"},
         {"[alsa]\ndevice = hw:0\x7f\n", "t/board.ini:2: a control byte at column 14"},
+        {"[alsa]\ndevice = hw:0\xc2\x9b\n", "t/board.ini:2: a control byte at column 14"}, /* C1 CSI */
     };
     for (size_t i = 0; i < sizeof raw / sizeof raw[0]; i++) {
         err[0] = '\0';

@@ -190,6 +190,10 @@ static void log_escapes_what_is_not_text(void **state)
     assert_string_equal(small, "ab");
     assert_int_equal(hd_text_escape(small, sizeof small, "\xf0\x9f\x98\x80z", 5), 5); /* U+1F600 kept whole */
     assert_string_equal(small, "\xf0\x9f\x98\x80z");
+    /* The C1 controls are valid UTF-8 but control characters (CSI, NEL):
+     * escaped; U+00A0 just above them is text. */
+    assert_int_equal(hd_text_escape(out, sizeof out, "a\xc2\x9b" "31m\xc2\x85\xc2\xa0", 10), 10);
+    assert_string_equal(out, "a\\xc2\\x9b31m\\xc2\\x85\xc2\xa0");
 }
 
 /* The flood guard: `burst` messages a window, the rest counted; a new window
