@@ -7,14 +7,19 @@
  * capture side, sends triggers through hapticd's host trigger FIFO (and with
  * --touch, touches through a uinput panel), provokes a capture overrun and a
  * playback underrun, stops hapticd, and checks every voice in the recording
- * against the table. One "vboard: PASS|FAIL name: detail" line per check;
- * exit status 1 if any failed. */
+ * against the table. Last, it starts hapticd again and removes the loopback
+ * card under it while it plays (the snd-aloop platform device unbound from
+ * its driver): hapticd must give up on the failed device and exit 1.
+ * One "vboard: PASS|FAIL name: detail" line per check; exit status 1 if any
+ * failed. */
 #define _GNU_SOURCE
 #include "vboard.h"
 
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
+#include <libgen.h>
+#include <limits.h>
 #include <math.h>
 #include <signal.h>
 #include <spawn.h>
@@ -30,6 +35,8 @@ extern char **environ;
 
 #define FIFO_PATH "/tmp/vboard-triggers"
 #define LOG_PATH "/tmp/hapticd.log"
+#define FAILING_LOG_PATH "/tmp/hapticd-failing.log" /* the failing-device run's stderr */
+#define FAILING_OUT_PATH "/tmp/hapticd-failing.out" /* and its stdout */
 #define LATENCY_PATH "/tmp/hapticd-latency.txt"
 #define CAPTURE_PCM "hw:Loopback,1,0" /* snd-aloop: what hw:Loopback,0,0 plays */
 #define SPACING_MS 250                /* between triggers: a 50 ms voice and a silent gap */
@@ -37,6 +44,7 @@ extern char **environ;
 
 struct run {
     const char *hapticd, *board, *table_path;
+    const char *log;                     /* hapticd's stderr (LOG_PATH, or FAILING_LOG_PATH) */
     int touch;
     unsigned tick_hz;
     haptic_table table;
@@ -67,13 +75,14 @@ static char *read_text(const char *path)
     return buf;
 }
 
-static int log_has(const char *needle)
+static int log_has(const struct run *r, const char *needle)
 {
-    const char *text = read_text(LOG_PATH);
+    const char *text = read_text(r->log);
     return text && strstr(text, needle);
 }
 
-static int start_hapticd(struct run *r)
+/* hapticd's stderr goes to r->log; its stdout to out_path, or with it. */
+static int start_hapticd(struct run *r, const char *out_path)
 {
     unlink(FIFO_PATH);
     if (mkfifo(FIFO_PATH, 0600) != 0)
@@ -82,15 +91,18 @@ static int start_hapticd(struct run *r)
                     "--triggers", FIFO_PATH, "--latency-report", LATENCY_PATH, NULL};
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, LOG_PATH, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    posix_spawn_file_actions_addopen(&fa, 2, r->log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (out_path)
+        posix_spawn_file_actions_addopen(&fa, 1, out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    else
+        posix_spawn_file_actions_adddup2(&fa, 2, 1);
     int rc = posix_spawn(&r->pid, r->hapticd, &fa, NULL, argv, environ);
     posix_spawn_file_actions_destroy(&fa);
     if (rc)
         return -rc;
     /* Under emulation start-up takes a while; hapticd says when it runs. */
     for (int i = 0; i < 300; i++) {
-        if (log_has("running ("))
+        if (log_has(r, "running ("))
             break;
         int st;
         if (waitpid(r->pid, &st, WNOHANG) == r->pid) {
@@ -99,7 +111,7 @@ static int start_hapticd(struct run *r)
         }
         sleep_ms(50);
     }
-    if (!log_has("running ("))
+    if (!log_has(r, "running ("))
         return -ETIMEDOUT;
     /* hapticd holds the FIFO open read-write: this open does not block. */
     r->fifo = open(FIFO_PATH, O_WRONLY | O_CLOEXEC);
@@ -294,6 +306,194 @@ static long report_value(const char *key)
     return p ? strtol(p + strlen(key), NULL, 10) : -1;
 }
 
+/* The board's [alsa] device (what hapticd names in its messages). */
+static const char *board_device(const char *board)
+{
+    static char dev[128];
+    const char *text = read_text(board), *p = text ? strstr(text, "\ndevice = ") : NULL;
+    if (!p || sscanf(p, "\ndevice = %127s", dev) != 1)
+        snprintf(dev, sizeof dev, "hw:Loopback,0,0");
+    return dev;
+}
+
+/* The loopback card's platform device and its driver's unbind file, found
+ * through sysfs (/proc/asound/Loopback -> cardN -> its device and driver). */
+static int loopback_unbind_path(char *device, size_t device_cap, char *unbind, size_t unbind_cap, int *card)
+{
+    char link[PATH_MAX], path[PATH_MAX], drv[PATH_MAX];
+    ssize_t n = readlink("/proc/asound/Loopback", link, sizeof link - 1);
+    if (n <= 0)
+        return -errno;
+    link[n] = '\0';
+    if (sscanf(link, "card%d", card) != 1)
+        return -ENOENT;
+    snprintf(path, sizeof path, "/sys/class/sound/card%d/device", *card);
+    if (!realpath(path, link))
+        return -errno;
+    snprintf(device, device_cap, "%s", basename(link));
+    snprintf(path, sizeof path, "/sys/class/sound/card%d/device/driver", *card);
+    if (!realpath(path, drv))
+        return -errno;
+    if ((size_t)snprintf(unbind, unbind_cap, "%s/unbind", drv) >= unbind_cap)
+        return -ENAMETOOLONG;
+    return 0;
+}
+
+/* Writes `device` to `unbind` in a child: the kernel disconnects the card at
+ * once, then waits in the write until every file on it is closed (hapticd's
+ * included). The child's exit status is 0 or the write's errno. */
+static pid_t unbind_async(const char *unbind, const char *device)
+{
+    pid_t pid = fork();
+    if (pid == 0) {
+        int fd = open(unbind, O_WRONLY);
+        if (fd < 0)
+            _exit(errno & 0xff);
+        ssize_t len = (ssize_t)strlen(device);
+        _exit(write(fd, device, (size_t)len) == len ? 0 : errno & 0xff);
+    }
+    return pid;
+}
+
+/* Waits for pid until deadline_ns (CLOCK_MONOTONIC); returns 1 with *status
+ * and *at_ns once it exited, 0 at the deadline. Sends `trigger` to hapticd's
+ * FIFO every 100 ms meanwhile, if given (a write error is no concern: the
+ * reader may be gone). */
+static int wait_until(pid_t pid, uint64_t deadline_ns, int *status, uint64_t *at_ns, int fifo, const char *trigger)
+{
+    uint64_t next_trigger = vb_now_ns();
+    for (;;) {
+        if (waitpid(pid, status, WNOHANG) == pid) {
+            *at_ns = vb_now_ns();
+            return 1;
+        }
+        uint64_t now = vb_now_ns();
+        if (now >= deadline_ns)
+            return 0;
+        if (trigger && fifo >= 0 && now >= next_trigger) {
+            if (write(fifo, trigger, strlen(trigger)) < 0) {
+                /* EPIPE once hapticd is gone (SIGPIPE ignored) */
+            }
+            next_trigger = now + 100000000u;
+        }
+        sleep_ms(10);
+    }
+}
+
+/* A failing device through the real kernel driver: hapticd plays, triggers
+ * going, and the loopback card is removed under it (its platform device
+ * unbound from snd_aloop: what a USB card unplugged or a driver unloaded does
+ * to an open PCM). Every write then fails (the substream is disconnected);
+ * hapticd gives up after HD_AUDIO_GIVE_UP_NS (3 s) of errors and exits 1.
+ * The bound is guest time from the unbind: 3 s of errors, the main thread's
+ * 200 ms poll and the stop, with room for emulation's stalls (tens of ms; a
+ * stall over a second would restart hapticd's failing stretch once). */
+#define FAILING_BOUND_S 10
+static void check_failing_device(struct run *r)
+{
+    const char *name = "failing device";
+    char device[128], unbind[PATH_MAX];
+    int card = -1;
+    int rc = loopback_unbind_path(device, sizeof device, unbind, sizeof unbind, &card);
+    if (rc) {
+        vb_result(0, name, "finding the loopback card's platform device in sysfs: %s", strerror(-rc));
+        return;
+    }
+    if (r->fifo >= 0)
+        close(r->fifo); /* the first run's FIFO */
+    r->fifo = -1;
+    r->log = FAILING_LOG_PATH;
+    if ((rc = start_hapticd(r, FAILING_OUT_PATH)) != 0) {
+        vb_result(0, name, "hapticd did not start again on %s: %s", r->board, strerror(-rc));
+        printf("hapticd log (failing device):\n%s", read_text(r->log) ? read_text(r->log) : "");
+        stop_hapticd(r);
+        return;
+    }
+    static const char trigger_line[] = "focus 0\n";
+    for (int i = 0; i < 3; i++) { /* playing: a voice sounds when the card goes */
+        if (write(r->fifo, trigger_line, sizeof trigger_line - 1) < 0) {
+            /* judged below: hapticd's exit says what happened */
+        }
+        sleep_ms(i < 2 ? 100 : 10);
+    }
+    int status = 0;
+    uint64_t t_unbind = vb_now_ns(), t_exit = 0, t_unbound = 0;
+    pid_t child = unbind_async(unbind, device);
+    if (child < 0) {
+        vb_result(0, name, "fork: %s", strerror(errno));
+        stop_hapticd(r);
+        return;
+    }
+    int exited = wait_until(r->pid, t_unbind + FAILING_BOUND_S * 1000000000ull, &status, &t_exit, r->fifo,
+                            trigger_line);
+    if (!exited) { /* hung: end it so that the card's removal can finish */
+        kill(r->pid, SIGKILL);
+        waitpid(r->pid, NULL, 0);
+    }
+    r->pid = 0;
+    close(r->fifo);
+    r->fifo = -1;
+    int unbind_status = 0;
+    int unbound = wait_until(child, vb_now_ns() + 10000000000ull, &unbind_status, &t_unbound, -1, NULL);
+    char card_dir[64];
+    snprintf(card_dir, sizeof card_dir, "/sys/class/sound/card%d", card);
+    int card_gone = access(card_dir, F_OK) != 0;
+
+    /* hapticd's stderr: the give-up line names the device; libasound's own
+     * messages come through hapticd's log ("libasound: "), never raw. */
+    const char *dev = board_device(r->board);
+    char want[256];
+    snprintf(want, sizeof want, "ALSA device '%s' failed", dev);
+    const char *text = read_text(r->log);
+    char gave_up[512] = "";
+    unsigned raw_lib = 0;
+    for (const char *line = text; line && *line;) {
+        const char *end = strchr(line, '\n');
+        size_t len = end ? (size_t)(end - line) : strlen(line);
+        if (!strncmp(line, "ALSA lib ", 9))
+            raw_lib++;
+        char buf[512];
+        snprintf(buf, sizeof buf, "%.*s", (int)(len < sizeof buf ? len : sizeof buf - 1), line);
+        if (!gave_up[0] && strstr(buf, "giving up"))
+            snprintf(gave_up, sizeof gave_up, "%s", buf);
+        line = end ? end + 1 : line + len;
+    }
+    int named = gave_up[0] && strstr(gave_up, want);
+    int exit1 = exited && WIFEXITED(status) && WEXITSTATUS(status) == 1;
+    const double exit_s = (double)(t_exit - t_unbind) / 1e9;
+    char how[96];
+    if (!exited)
+        snprintf(how, sizeof how, "still running after %d s (hung; killed)", FAILING_BOUND_S);
+    else if (WIFSIGNALED(status))
+        snprintf(how, sizeof how, "killed by signal %d (%s) after %.2f s", WTERMSIG(status),
+                 strsignal(WTERMSIG(status)), exit_s);
+    else
+        snprintf(how, sizeof how, "exit status %d after %.2f s", WEXITSTATUS(status), exit_s);
+    char unbound_how[96];
+    if (!unbound)
+        snprintf(unbound_how, sizeof unbound_how, "the unbind write still blocked 10 s later");
+    else if (!WIFEXITED(unbind_status) || WEXITSTATUS(unbind_status))
+        snprintf(unbound_how, sizeof unbound_how, "the unbind write failed: %s",
+                 WIFEXITED(unbind_status) ? strerror(WEXITSTATUS(unbind_status)) : "child killed");
+    else
+        snprintf(unbound_how, sizeof unbound_how, "unbind returned after %.2f s, card%d %s",
+                 (double)(t_unbound - t_unbind) / 1e9, card, card_gone ? "gone" : "still present");
+    char said[600];
+    if (named)
+        snprintf(said, sizeof said, "stderr \"%s\"", gave_up);
+    else if (gave_up[0])
+        snprintf(said, sizeof said, "stderr's give-up line does not name '%s': \"%s\"", dev, gave_up);
+    else
+        snprintf(said, sizeof said, "stderr has no \"giving up\" line");
+    int ok = exit1 && named && !raw_lib && unbound && WIFEXITED(unbind_status) && !WEXITSTATUS(unbind_status) &&
+             card_gone;
+    vb_result(ok, name,
+              "%s unbound from %s while hapticd played with triggers going: hapticd %s (bound %d s, exit 1 wanted); "
+              "%s; %s; %u raw \"ALSA lib \" line(s)",
+              device, unbind, how, FAILING_BOUND_S, unbound_how, said, raw_lib);
+    printf("hapticd log (failing device):\n%s", text ? text : "");
+}
+
 static int run(struct run *r)
 {
     haptic_table_error err;
@@ -303,14 +503,15 @@ static int run(struct run *r)
     }
     r->panel.uinput_fd = r->panel.evdev_fd = -1;
     check_uinput(r); /* before hapticd, so a board that names the panel finds it */
-    int rc = start_hapticd(r);
+    r->log = LOG_PATH;
+    int rc = start_hapticd(r, NULL);
     vb_result(rc == 0, "hapticd starts", "on %s: %s", r->board, rc ? strerror(-rc) : "running");
     if (rc) {
-        printf("%s", read_text(LOG_PATH) ? read_text(LOG_PATH) : "");
+        printf("%s", read_text(r->log) ? read_text(r->log) : "");
         return 1;
     }
-    vb_result(log_has("triggers start at once"), "rewind", "snd-aloop rewinds queued frames (hapticd: %s)",
-              log_has("triggers start at once") ? "triggers start at once" : "cannot rewind");
+    vb_result(log_has(r, "triggers start at once"), "rewind", "snd-aloop rewinds queued frames (hapticd: %s)",
+              log_has(r, "triggers start at once") ? "triggers start at once" : "cannot rewind");
     if ((rc = vb_capture_open(&r->cap, CAPTURE_PCM, r->table.channel_count, r->table.sample_rate_hz, 20.0)) ||
         (rc = vb_capture_start(&r->cap))) {
         vb_result(0, "capture", "%s: %s", CAPTURE_PCM, snd_strerror(rc));
@@ -329,12 +530,12 @@ static int run(struct run *r)
     vb_result(status == 0, "hapticd stops", "SIGTERM: exit status %d", status);
     /* hapticd's buffer: period x periods of the board, as granted (logged). */
     double buffer_s = 0;
-    const char *text = read_text(LOG_PATH), *p = text ? strstr(text, "frames = ") : NULL;
+    const char *text = read_text(r->log), *p = text ? strstr(text, "frames = ") : NULL;
     if (p)
         buffer_s = strtod(p + 9, NULL) / 1e3;
-    vb_result(log_has("xrun recovered"), "playback underrun",
+    vb_result(log_has(r, "xrun recovered"), "playback underrun",
               "hapticd stopped 150 ms (buffer %.1f ms): %s; %ld xrun(s) in all, %ld trigger(s) rewound in",
-              buffer_s * 1e3, log_has("xrun recovered") ? "xrun recovered" : "no xrun reported",
+              buffer_s * 1e3, log_has(r, "xrun recovered") ? "xrun recovered" : "no xrun reported",
               report_value("xruns "), report_value("rewinds "));
     vb_result(r->cap.error == 0, "capture", "%zu frames recorded, %u segment(s)%s%s", atomic_load(&r->cap.count),
               atomic_load(&r->cap.segment_count), r->cap.error ? ": " : "",
@@ -348,9 +549,10 @@ static int run(struct run *r)
     const char *lat = read_text(LATENCY_PATH);
     if (lat)
         printf("hapticd latency report:\n%s", lat);
-    printf("hapticd log:\n%s", read_text(LOG_PATH) ? read_text(LOG_PATH) : "");
+    printf("hapticd log:\n%s", read_text(r->log) ? read_text(r->log) : "");
+    vb_capture_close(&r->cap); /* the card cannot go while we hold it open */
+    check_failing_device(r);   /* last: the card is gone after it */
     vb_touch_close(&r->panel);
-    vb_capture_close(&r->cap);
     haptic_table_close(&r->table);
     return vb_failed() ? 1 : 0;
 }
@@ -358,6 +560,7 @@ static int run(struct run *r)
 int main(int argc, char **argv)
 {
     setvbuf(stdout, NULL, _IOLBF, 0);
+    signal(SIGPIPE, SIG_IGN); /* a trigger written after hapticd left: EPIPE, not death */
     if (argc == 3 && !strcmp(argv[1], "make-table"))
         return vb_make_table(argv[2]) ? 1 : 0;
     if (argc < 2 || strcmp(argv[1], "run")) {
