@@ -59,11 +59,6 @@ const char *hd_format_name(enum hd_sample_format f)
     return f == HD_FMT_S16_LE ? "S16_LE" : f == HD_FMT_S32_LE ? "S32_LE" : "?";
 }
 
-double hd_board_buffer_latency_s(const struct hd_board *b)
-{
-    return (double)b->period_frames * b->periods / b->rate_hz;
-}
-
 __attribute__((format(printf, 4, 5))) static int bad(struct parse_ctx *c, const char *section, const char *key,
                                                      const char *fmt, ...)
 {
@@ -307,7 +302,8 @@ static int touch_key(struct parse_ctx *c, const char *section, const char *name,
     if (!strcmp(name, "name"))
         return copy_str(c, section, name, t->name, sizeof t->name, value);
     if (!strcmp(name, "area_m")) {
-        if (parse_doubles(value, t->area_m, 4) || t->area_m[0] == t->area_m[2] || t->area_m[1] == t->area_m[3])
+        if (parse_doubles(value, t->area_m, 4) || t->area_m[0] == t->area_m[2] || t->area_m[1] == t->area_m[3] ||
+            !isfinite(t->area_m[2] - t->area_m[0]) || !isfinite(t->area_m[3] - t->area_m[1]))
             return bad(c, section, name, "'%s' is not x0,y0,x1,y1 in metres with x0 != x1 and y0 != y1", value);
         t->has_area = true;
         return 1;
@@ -436,7 +432,7 @@ static int cross_check(struct parse_ctx *c)
                 plate[2 * k + 1] = t->calib[k][3];
             }
             if (hd_touch_map_from_points(panel, plate, &m))
-                return bad(c, "touch", "calib_3", "the three panel points are collinear: no map");
+                return bad(c, "touch", "calib_3", "the three points give no finite map (collinear panel points, or a plate beyond range)");
         }
     }
     if (b->line_count > 0 && !b->gpio_chip[0])

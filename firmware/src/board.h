@@ -94,9 +94,6 @@ int hd_board_parse_string(const char *text, const char *path, struct hd_board *b
 /* Parse "1,4, 7" into at most `max` unsigned values (each <= limit). Returns the count or -EINVAL. */
 int hd_parse_uint_list(const char *s, uint32_t *out, unsigned max, uint32_t limit);
 
-/* Buffer latency the board asks for, in seconds: period_frames * periods / rate_hz. */
-double hd_board_buffer_latency_s(const struct hd_board *b);
-
 const char *hd_format_name(enum hd_sample_format f);
 
 #endif

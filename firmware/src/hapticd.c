@@ -2,10 +2,11 @@
  *
  * This file is the shell: options, start-up, threads, signals, shutdown.
  * Threads: main (signals: SIGHUP reload, SIGTERM/SIGINT stop; frees retired
- * tables; logs counters, stats.c; reads the panel temperature and hands over
- * the table stretched for it, panel.h), trigger (trigger_loop.c), audio
- * (audio_loop.c, SCHED_FIFO when allowed). --script runs the same engine
- * unpaced in one thread for sample-exact tests (script.c, audio_loop.c).
+ * tables; logs counters, stats.c; which table plays, reloaded or stretched
+ * again for the panel temperature, table_policy.c), trigger (trigger_loop.c),
+ * audio (audio_loop.c, SCHED_FIFO when allowed). --script runs the same
+ * engine unpaced in one thread for sample-exact tests (script.c,
+ * audio_loop.c).
  */
 #define _GNU_SOURCE
 #include "audio_alsa.h"
@@ -13,11 +14,11 @@
 #include "board.h"
 #include "engine.h"
 #include "log.h"
-#include "panel.h"
 #include "program.h"
 #include "rt.h"
 #include "script.h"
 #include "stats.h"
+#include "table_policy.h"
 #include "trigger.h"
 #include "trigger_evdev.h"
 #include "trigger_gpiod.h"
@@ -28,7 +29,6 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
-#include <math.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -61,15 +61,11 @@ struct daemon {
     int stop_pipe[2];
     struct hd_trigger_loop triggers;
     struct hd_audio_loop player;
+    struct hd_table_policy tables; /* which table plays (main thread) */
     atomic_int accepting;     /* the trigger thread's events are taken */
     struct hd_latency_chain chain; /* touch -> focal peak, for the current table */
     int rewind_at_start;      /* the PCM rewinds (probed before the threads start) */
     double buffer_latency_s;  /* as granted by ALSA */
-    double celsius;           /* panel temperature the current table is stretched for; NAN: none read */
-    double refused_celsius;   /* a temperature the table could not be stretched for; NAN: none */
-    double next_poll_s;       /* CLOCK_MONOTONIC time of the next temperature reading */
-    int sensor_failing;       /* the last reading failed (logged once per failing stretch) */
-    struct hd_program *latest; /* the program handed over last: what a temperature step stretches again */
     unsigned long lib_pending;     /* libasound messages not logged yet */
     char lib_pending_first[512];   /* the first of them */
     double lib_next_log_s;         /* no libasound line before this time */
@@ -128,66 +124,13 @@ static const char *table_path(const struct daemon *d)
     return d->opt.table ? d->opt.table : d->board.table_path;
 }
 
-/* Stretches p for the panel at temperature `celsius` (NAN: none read): the
- * board's speed ratio and the temperature through the table's panel section
- * (panel.h). */
-static int stretch_for_panel(struct daemon *d, struct hd_program *p, double celsius, char err[HD_ERR_MAX])
+/* After each table the policy hands over (table_policy.h): the touchscreen
+ * takes the new foci at its next event, and the touch -> focal peak chain
+ * is the new table's. */
+static void table_handed_over(void *ctx, const struct hd_program *p)
 {
-    double ratio;
-    int rc;
-    if ((rc = hd_panel_speed_ratio(&d->board.panel, &p->table, celsius, &ratio, err)) != 0 ||
-        (rc = hd_program_set_speed(p, ratio, err)) != 0)
-        return rc;
-    if (ratio == 1.0)
-        return 0;
-    char at[48] = "";
-    if (!isnan(celsius))
-        snprintf(at, sizeof at, ", panel at %.2f C", celsius);
-    hd_log(LOG_INFO, "panel: drives played %.5f times as fast as stored (board speed ratio %.5f%s), %u frames each%s",
-           ratio, d->board.panel.speed_ratio, at, p->samples,
-           p->stretch_clipped ? ", some samples saturated" : "");
-    return 0;
-}
-
-/* The table file, stretched for the panel at `celsius`. */
-static int load_program(struct daemon *d, double celsius, struct hd_program **out, char err[HD_ERR_MAX])
-{
-    struct hd_program *p;
-    int rc = hd_program_load(table_path(d), &d->board, &p, err);
-    if (rc)
-        return rc;
-    if ((rc = stretch_for_panel(d, p, celsius, err)) != 0) {
-        hd_program_free(p);
-        return rc;
-    }
-    *out = p;
-    return 0;
-}
-
-/* Hands p (owned from here) to the audio thread, stretched for `celsius`. */
-static int hand_over(struct daemon *d, struct hd_program *p, double celsius, const char *what)
-{
-    /* The audio thread takes a new table only after the one before the current
-     * is retired; wait for that (a signal length at most). */
-    int rc = hd_engine_offer(&d->engine, p);
-    for (int i = 0; i < 500 && rc == -EBUSY; i++) {
-        struct timespec ts = {0, 10000000};
-        nanosleep(&ts, NULL);
-        hd_engine_collect(&d->engine);
-        rc = hd_engine_offer(&d->engine, p);
-    }
-    if (rc != 0) {
-        hd_log(LOG_ERR, "%s refused: the previous hand-over is still being taken over", what);
-        hd_program_free(p);
-        return -1;
-    }
-    d->latest = p; /* alive until a later one is handed over and this one retired (freed here) */
-    d->celsius = celsius;
-    d->refused_celsius = NAN;
-    hd_log(LOG_INFO, "%s %s (%u foci, %u channels, %u samples)", what, table_path(d), p->focus_count,
-           p->channel_count, p->samples);
+    struct daemon *d = ctx;
     if (d->have_touch) {
-        /* The touchscreen takes the new foci at its next event. */
         struct hd_touch_foci *f = hd_touch_foci_of(&p->table);
         if (!f)
             hd_log(LOG_ERR, "touch input keeps the previous foci: out of memory");
@@ -196,39 +139,6 @@ static int hand_over(struct daemon *d, struct hd_program *p, double celsius, con
     }
     chain_for(d, p, d->rewind_at_start);
     hd_stats_log_chain(table_path(d), &d->chain);
-    return 0;
-}
-
-/* SIGHUP: the table file again, stretched for the current temperature. */
-static void reload(struct daemon *d)
-{
-    struct hd_program *p;
-    char err[HD_ERR_MAX];
-    hd_engine_collect(&d->engine);
-    if (load_program(d, d->celsius, &p, err) != 0) {
-        hd_log(LOG_ERR, "reload refused, the current table keeps playing: %s", err);
-        return;
-    }
-    hand_over(d, p, d->celsius, "reloaded");
-}
-
-/* A temperature step: the table playing now (not the file, which SIGHUP
- * reloads), stretched for `celsius`. A temperature it cannot be stretched
- * for is logged once and not tried again until the panel moves a step on. */
-static void restretch(struct daemon *d, double celsius)
-{
-    struct hd_program *p;
-    char err[HD_ERR_MAX];
-    hd_engine_collect(&d->engine);
-    int rc = hd_program_clone(d->latest, &d->board, &p, err);
-    if (rc == 0 && (rc = stretch_for_panel(d, p, celsius, err)) != 0)
-        hd_program_free(p);
-    if (rc != 0) {
-        hd_log(LOG_ERR, "panel at %.2f C: the table keeps playing as it is: %s", celsius, err);
-        d->refused_celsius = celsius;
-        return;
-    }
-    hand_over(d, p, celsius, "re-stretched");
 }
 
 static double monotonic_s(void)
@@ -236,38 +146,6 @@ static double monotonic_s(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* Every temperature_poll_s: read the panel temperature; once it has moved
- * temperature_step_k from the one the table is stretched for (or is read for
- * the first time), hand over the table stretched for it, off the real-time
- * path. A sensor that cannot be read leaves the current table playing. */
-static void poll_temperature(struct daemon *d)
-{
-    const struct hd_panel_board *pb = &d->board.panel;
-    if (!pb->temperature_input[0] || monotonic_s() < d->next_poll_s)
-        return;
-    d->next_poll_s = monotonic_s() + pb->temperature_poll_s;
-    double t;
-    char err[HD_ERR_MAX];
-    if (hd_panel_read_celsius(pb->temperature_input, &t, err) != 0) {
-        if (!d->sensor_failing)
-            hd_log(LOG_WARNING, "panel temperature unreadable, the table keeps playing as it is: %s", err);
-        d->sensor_failing = 1;
-        return;
-    }
-    if (d->sensor_failing)
-        hd_log(LOG_INFO, "panel temperature readable again: %.2f C", t);
-    d->sensor_failing = 0;
-    if (fabs(t - d->celsius) < pb->temperature_step_k ||
-        (!isnan(d->refused_celsius) && fabs(t - d->refused_celsius) < pb->temperature_step_k))
-        return;
-    if (isnan(d->celsius))
-        hd_log(LOG_INFO, "panel temperature %.2f C: stretching the table for it", t);
-    else
-        hd_log(LOG_INFO, "panel temperature %.2f C (the table is stretched for %.2f C): stretching again", t,
-               d->celsius);
-    restretch(d, t);
 }
 
 /* ---- main ---- */
@@ -335,7 +213,7 @@ static int parse_args(int argc, char **argv, struct options *o)
 }
 
 /* The touchscreen plays the table's foci at the positions the table gives
- * them; a reload hands it the new ones (reload()). */
+ * them; a later table hands it its own (table_handed_over()). */
 static int open_touch(struct daemon *d, char err[HD_ERR_MAX])
 {
     struct hd_touch_foci *f = hd_touch_foci_of(&d->engine.current->table);
@@ -479,10 +357,10 @@ static int run_live(struct daemon *d)
         hd_engine_collect(&d->engine);
         hd_stats_log(&d->engine, &last);
         if (sig == SIGHUP)
-            reload(d);
+            hd_table_policy_reload(&d->tables);
         else if (sig == SIGTERM || sig == SIGINT)
             break;
-        poll_temperature(d);
+        hd_table_policy_poll(&d->tables, monotonic_s());
         log_lib_messages(d);
         const int failed = atomic_load(&d->player.failed);
         if (failed) {
@@ -535,24 +413,11 @@ int main(int argc, char **argv)
         hd_log(LOG_ERR, "no table: pass --table or set [table] path in %s", d.board.path);
         return 1;
     }
-    d.celsius = d.refused_celsius = NAN;
-    if (d.board.panel.temperature_input[0]) {
-        /* A sensor whose driver probes late is not fatal: the table plays at
-         * the board's speed ratio until the temperature can be read. */
-        if (hd_panel_read_celsius(d.board.panel.temperature_input, &d.celsius, err) != 0) {
-            hd_log(LOG_WARNING, "[panel] temperature_input: %s: the table plays at the board's speed ratio until it "
-                                "can be read", err);
-            d.celsius = NAN;
-            d.sensor_failing = 1;
-        }
-        d.next_poll_s = monotonic_s() + d.board.panel.temperature_poll_s;
-    }
     struct hd_program *prog;
-    if (load_program(&d, d.celsius, &prog, err) != 0) {
+    if (hd_table_policy_open(&d.tables, &d.board, table_path(&d), monotonic_s(), &prog, err) != 0) {
         hd_log(LOG_ERR, "%s", err);
         return 1;
     }
-    d.latest = prog;
     d.triggers.host_fd = -1;
     d.stop_pipe[0] = d.stop_pipe[1] = -1;
     d.player.trigger_efd = d.player.timer_fd = -1;
@@ -564,6 +429,7 @@ int main(int argc, char **argv)
         hd_program_free(prog);
         return 1;
     }
+    hd_table_policy_attach(&d.tables, &d.engine, table_handed_over, &d);
     int status = 1;
     struct hd_script script = {0};
     /* A bad script fails before the device is opened: no WAV half-written. */

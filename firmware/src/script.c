@@ -2,6 +2,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "script.h"
 
+#include "trigger.h"
+
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>

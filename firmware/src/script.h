@@ -5,8 +5,8 @@
 #ifndef HD_SCRIPT_H
 #define HD_SCRIPT_H
 
+#include "event.h"
 #include "hd_defs.h"
-#include "trigger.h"
 
 #include <stddef.h>
 #include <stdio.h>

@@ -1,11 +1,12 @@
 /* spsc.h - lock-free single-producer single-consumer ring of trigger events
- * (C11 atomics). The trigger thread pushes, the real-time audio thread pops.
+ * (C11 atomics). The trigger thread pushes; the real-time audio thread peeks
+ * and releases what it has started (engine.c).
  * Fixed capacity, no allocation: a full ring drops the new event and counts
  * it, so a trigger storm cannot grow memory or block either side. */
 #ifndef HD_SPSC_H
 #define HD_SPSC_H
 
-#include "trigger.h"
+#include "event.h"
 
 #include <stdatomic.h>
 #include <stdbool.h>
@@ -60,15 +61,6 @@ static inline void hd_spsc_release(struct hd_spsc *r, uint32_t n)
 {
     uint32_t h = atomic_load_explicit(&r->head, memory_order_relaxed);
     atomic_store_explicit(&r->head, h + n, memory_order_release);
-}
-
-/* Consumer side. Returns false when empty. */
-static inline bool hd_spsc_pop(struct hd_spsc *r, struct hd_event *ev)
-{
-    if (!hd_spsc_peek(r, 0, ev))
-        return false;
-    hd_spsc_release(r, 1);
-    return true;
 }
 
 /* Any thread: whether every event pushed so far has been released. Exact

@@ -22,6 +22,9 @@ int hd_touch_map_from_points(const double *panel, const double *plate, struct hd
         out->m[3 * k + 1] = (x1 * (v2 - v3) - v1 * (x2 - x3) + (x2 * v3 - x3 * v2)) / det;
         out->m[3 * k + 2] = (x1 * (y2 * v3 - y3 * v2) - y1 * (x2 * v3 - x3 * v2) + v1 * (x2 * y3 - x3 * y2)) / det;
     }
+    for (int i = 0; i < 6; i++)
+        if (!isfinite(out->m[i])) /* finite points, but a map beyond double range (e.g. plate 1e308 apart) */
+            return -EINVAL;
     return 0;
 }
 
@@ -32,6 +35,9 @@ int hd_touch_map_from_area(int32_t x_min, int32_t x_max, int32_t y_min, int32_t 
         return -EINVAL;
     const double sx = (area[2] - area[0]) / ((double)x_max - x_min), sy = (area[3] - area[1]) / ((double)y_max - y_min);
     *out = (struct hd_touch_map){{sx, 0, area[0] - sx * x_min, 0, sy, area[1] - sy * y_min}};
+    for (int i = 0; i < 6; i++)
+        if (!isfinite(out->m[i])) /* an area beyond double range (-1e308..1e308) */
+            return -EINVAL;
     return 0;
 }
 

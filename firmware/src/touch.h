@@ -22,8 +22,8 @@
 #ifndef HD_TOUCH_H
 #define HD_TOUCH_H
 
+#include "event.h"
 #include "hd_defs.h"
-#include "trigger.h"
 
 #include <stdbool.h>
 #include <stdint.h>

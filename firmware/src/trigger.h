@@ -16,20 +16,13 @@
 #ifndef HD_TRIGGER_H
 #define HD_TRIGGER_H
 
-#include "hd_defs.h"
 #include "board.h"
+#include "event.h"
+#include "hd_defs.h"
 
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
-
-/* One trigger: the foci (table ids) to play, and when it happened. */
-struct hd_event {
-    uint64_t t_ns;                 /* CLOCK_MONOTONIC when the daemon saw it (latency stats) */
-    int64_t frame;                 /* scripted start frame, or -1 for "as soon as possible" */
-    uint32_t focus_count;
-    uint32_t focus_ids[HD_MAX_EVENT_FOCI];
-};
 
 struct hd_trigger_line_state {
     unsigned offset;

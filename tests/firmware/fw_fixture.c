@@ -95,6 +95,18 @@ void fw_table_write(const struct fw_table *t, const char *path)
     (void)n;
 }
 
+void fw_write_text(const char *path, const char *text)
+{
+    char tmp[600];
+    if (snprintf(tmp, sizeof tmp, "%s.new", path) >= (int)sizeof tmp)
+        abort();
+    FILE *f = fopen(tmp, "w");
+    if (!f || fputs(text, f) < 0 || fclose(f) != 0 || rename(tmp, path) != 0) {
+        perror(path);
+        abort();
+    }
+}
+
 void fw_board(struct hd_board *b, unsigned channels, enum hd_sample_format fmt, unsigned period)
 {
     hd_board_defaults(b);

@@ -34,6 +34,9 @@ void fw_table_encode(struct fw_table *t, const double *lead_time_s);
 void fw_table_free(struct fw_table *t);
 /* Write the encoded bytes to path (plain write, for tests). */
 void fw_table_write(const struct fw_table *t, const char *path);
+/* Replace the file at path with `text` at once (written beside it, then
+ * renamed over it): a reader sees the old file or the new one, never half. */
+void fw_write_text(const char *path, const char *text);
 static inline int16_t fw_sample(const struct fw_table *t, uint32_t f, uint32_t n, uint32_t c)
 {
     return t->samples_buf[((size_t)f * t->samples + n) * t->channels + c];

@@ -4,6 +4,7 @@
 
 #include <fcntl.h>
 #include <spawn.h>
+#include <sys/ioctl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -77,13 +78,9 @@ void hs_assert_clean_exit(pid_t pid, const char *stderr_path)
 {
     int st = hs_wait_exit(pid);
     if (st != 0) {
-        char buf[16384];
-        FILE *f = fopen(stderr_path, "r");
-        size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
-        buf[n] = '\0';
-        if (f)
-            fclose(f);
-        fail_msg("hapticd exited with %d; its stderr:\n%s", st, buf);
+        size_t len;
+        char *text = hs_slurp(stderr_path, &len);
+        fail_msg("hapticd exited with %d; its stderr:\n%s", st, text);
     }
 }
 
@@ -120,27 +117,75 @@ int32_t *hs_read_wav(const char *file, sf_count_t *frames, int want_format)
     return buf;
 }
 
+/* The whole file, or NULL when it cannot be opened (not there yet). */
+static char *read_all(const char *file, size_t *len)
+{
+    FILE *f = fopen(file, "rb");
+    if (!f)
+        return NULL;
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap);
+    assert_non_null(buf);
+    for (;;) {
+        n += fread(buf + n, 1, cap - n, f);
+        if (n < cap)
+            break; /* read to the end (a file still growing: as far as it went) */
+        cap *= 2;
+        buf = realloc(buf, cap);
+        assert_non_null(buf);
+    }
+    assert_false(ferror(f));
+    fclose(f);
+    buf[n] = '\0'; /* n < cap */
+    *len = n;
+    return buf;
+}
+
+char *hs_slurp(const char *file, size_t *len)
+{
+    char *text = read_all(file, len);
+    if (!text)
+        fail_msg("%s cannot be read", file);
+    return text;
+}
+
+unsigned hs_count(const char *text, const char *needle)
+{
+    unsigned k = 0;
+    for (const char *p = text; (p = strstr(p, needle)) != NULL; p += strlen(needle))
+        k++;
+    return k;
+}
+
+unsigned hs_file_count(const char *file, const char *needle)
+{
+    size_t len;
+    char *text = read_all(file, &len);
+    if (!text)
+        return 0;
+    unsigned k = hs_count(text, needle);
+    free(text);
+    return k;
+}
+
 int hs_file_contains(const char *file, const char *needle)
 {
-    char buf[8192] = "";
-    FILE *f = fopen(file, "r");
-    if (!f)
-        return 0;
-    size_t n = fread(buf, 1, sizeof buf - 1, f);
-    buf[n] = '\0';
-    fclose(f);
-    return strstr(buf, needle) != NULL;
+    return hs_file_count(file, needle) > 0;
+}
+
+void hs_wait_count(const char *file, const char *needle, unsigned k)
+{
+    for (int i = 0; i < 1000; i++) {
+        if (hs_file_count(file, needle) >= k)
+            return;
+        hs_sleep_ms(10);
+    }
+    fail_msg("%s never said '%s' %u times", file, needle, k);
 }
 
 void hs_wait_for(const char *file, const char *needle)
 {
-    for (int i = 0; i < 500; i++) {
-        if (hs_file_contains(file, needle))
-            return;
-        struct timespec ts = {0, 10000000};
-        nanosleep(&ts, NULL);
-    }
-    fail_msg("%s never said '%s'", file, needle);
+    hs_wait_count(file, needle, 1);
 }
 
 void hs_sleep_ms(long ms)
@@ -195,4 +240,84 @@ void hs_send_focus(int fd, uint32_t id)
     char line[64];
     int n = snprintf(line, sizeof line, "focus %u\n", id);
     assert_int_equal(write(fd, line, (size_t)n), n);
+}
+
+void hs_wait_fifo_read(int fd)
+{
+    for (int i = 0; i < 1000; i++) {
+        int queued = -1;
+        assert_int_equal(ioctl(fd, FIONREAD, &queued), 0);
+        if (queued == 0)
+            return;
+        hs_sleep_ms(10);
+    }
+    fail_msg("hapticd did not read its trigger FIFO within 10 s");
+}
+
+static uint32_t le32(const char *p)
+{
+    const unsigned char *u = (const unsigned char *)p;
+    return u[0] | (uint32_t)u[1] << 8 | (uint32_t)u[2] << 16 | (uint32_t)u[3] << 24;
+}
+
+int32_t *hs_wav_snapshot(const char *file, sf_count_t *frames)
+{
+    *frames = 0;
+    size_t len;
+    char *raw = read_all(file, &len);
+    if (!raw)
+        return NULL;
+    int32_t *out = NULL;
+    if (len >= 12 && !memcmp(raw, "RIFF", 4) && !memcmp(raw + 8, "WAVE", 4)) {
+        /* The chunks up to "data"; its size is fixed up only on close. */
+        for (size_t at = 12; at + 8 <= len;) {
+            const uint32_t size = le32(raw + at + 4);
+            if (!memcmp(raw + at, "fmt ", 4) && at + 8 + 16 <= len) {
+                assert_int_equal(raw[at + 8 + 2] | raw[at + 8 + 3] << 8, HS_CHANNELS);
+                assert_int_equal(raw[at + 8 + 14], 32); /* S32_LE */
+            }
+            if (!memcmp(raw + at, "data", 4)) {
+                const size_t frame_bytes = HS_CHANNELS * sizeof(int32_t);
+                *frames = (sf_count_t)((len - at - 8) / frame_bytes);
+                out = malloc((size_t)*frames * frame_bytes + 1);
+                assert_non_null(out);
+                memcpy(out, raw + at + 8, (size_t)*frames * frame_bytes); /* little-endian, as the host */
+                break;
+            }
+            at += 8 + size + (size & 1);
+        }
+    }
+    free(raw);
+    if (!*frames) {
+        free(out);
+        return NULL;
+    }
+    return out;
+}
+
+sf_count_t hs_wait_voice(const char *file, sf_count_t from, sf_count_t length, const struct hs_voice *known,
+                         size_t n_known)
+{
+    for (int i = 0; i < 1000; i++) {
+        sf_count_t frames;
+        int32_t *w = hs_wav_snapshot(file, &frames);
+        sf_count_t onset = -1;
+        for (sf_count_t n = from; w && n < frames && onset < 0; n++)
+            for (uint32_t c = 0; c < HS_CHANNELS; c++) {
+                int64_t y = w[n * HS_CHANNELS + c];
+                for (size_t v = 0; v < n_known; v++)
+                    if (n >= known[v].at && n - known[v].at < known[v].frames)
+                        y -= (int64_t)known[v].samples[(size_t)(n - known[v].at) * HS_CHANNELS + c] * 65536;
+                if (y) {
+                    onset = n;
+                    break;
+                }
+            }
+        free(w);
+        if (onset >= 0 && onset + length <= frames)
+            return onset;
+        hs_sleep_ms(10);
+    }
+    fail_msg("%s: no new voice of %ld frames from frame %ld within 10 s", file, (long)length, (long)from);
+    return -1;
 }

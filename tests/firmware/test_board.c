@@ -96,8 +96,6 @@ static void every_key(void **state)
     assert_string_equal(b.table_path, "/var/lib/hapticd/plate.htab");
     assert_int_equal(b.rt_priority, 70);
     assert_false(b.mlock);
-    /* 32 frames x 3 periods at 44.1 kHz */
-    assert_true(hd_board_buffer_latency_s(&b) == 96.0 / 44100.0);
 }
 
 static void defaults(void **state)
@@ -126,7 +124,6 @@ static void defaults(void **state)
     assert_string_equal(b.alsa_config, "");
     assert_int_equal(b.rt_priority, 80);
     assert_true(b.mlock);
-    assert_true(hd_board_buffer_latency_s(&b) == 128.0 / 48000.0);
 }
 
 struct bad_case {
@@ -177,6 +174,8 @@ static const struct bad_case cases[] = {
     {"[touch]\narea_m = 0,0,0.7\n", "[touch] area_m", 4},
     {"[touch]\narea_m = 0,0,0,0.7\n", "[touch] area_m", 4},
     {"[touch]\narea_m = 0,0,0.7,0.7,1\n", "[touch] area_m", 4},
+    {"[touch]\narea_m = -1e308,0,1e308,1\n", "[touch] area_m", 4},
+    {"[touch]\nname = p\ncalib_1 = 0,0,1e308,0\ncalib_2 = 1,0,-1e308,0\ncalib_3 = 0,1,0,0\n", "no finite map", 0},
     {"[touch]\ncalib_1 = 0,0,x,0\n", "[touch] calib_1", 4},
     {"[touch]\ncalib_4 = 0,0,0,0\n", "[touch] calib_4", 4},
     {"[touch]\nmax_distance_m = 0\n", "[touch] max_distance_m", 4},

@@ -3,7 +3,9 @@
  * at the documented alignment; live mode with a FIFO: SIGHUP with a corrupt
  * table is refused and the old table keeps playing, a good table is taken;
  * live triggers rewound in at once leave exactly the sum of the voices in
- * the WAV (and without rewinding start on period boundaries). */
+ * the WAV (and without rewinding start on period boundaries). Live steps wait
+ * for what hapticd does (a log line, a voice in the WAV, the FIFO read), not
+ * for a time; the one race that is paced by sleeps says why. */
 #define _GNU_SOURCE
 #include "fw_fixture.h"
 #include "hostsim_run.h"
@@ -34,6 +36,19 @@
 
 /* Independent energy-normalized gain for a voice (the peak limit does not
  * bind at these amplitudes: asserted). */
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Focus f of t as a voice starting at `at` (hs_wait_voice). */
+static struct hs_voice voice_of(const struct fw_table *t, uint32_t f, sf_count_t at)
+{
+    return (struct hs_voice){.at = at, .samples = &t->samples_buf[(size_t)f * N * C], .frames = N};
+}
+
 static double ref_gain(const struct fw_table *t, const uint32_t *idx, uint32_t K)
 {
     double e_ref = 0, e_sum = 0, peak = 0;
@@ -149,9 +164,12 @@ static void sighup_keeps_old_table_on_corruption(void **state)
     fw_table_write(&old_t, f.table);
     hs_write_board(f.board, "S32_LE", "0,1,2,3,4,5,6,7");
     int fd;
+    const double t0 = now_s();
     pid_t pid = hs_start_live(&f, 0, &fd);
+    /* Each voice played whole before the next step: the voices never
+     * overlap, and each one's table is the one before the step. */
     hs_send_focus(fd, old_t.ids[0]);
-    hs_sleep_ms(100);
+    sf_count_t at = hs_wait_voice(f.wav, 0, N, NULL, 0);
     /* A corrupt table (one payload byte flipped, CRC now wrong) on disk + SIGHUP. */
     old_t.buf[old_t.size - 100] ^= 0x5a;
     fw_table_write(&old_t, f.table);
@@ -159,15 +177,16 @@ static void sighup_keeps_old_table_on_corruption(void **state)
     kill(pid, SIGHUP);
     hs_wait_for(f.err, "reload refused");
     hs_send_focus(fd, old_t.ids[1]);
-    hs_sleep_ms(100);
-    /* A good new table is taken. */
+    at = hs_wait_voice(f.wav, at + N, N, NULL, 0);
+    /* A good new table is taken (handed over before it says so). */
     fw_table_write(&new_t, f.table);
     kill(pid, SIGHUP);
     hs_wait_for(f.err, "reloaded");
     hs_send_focus(fd, new_t.ids[0]);
-    hs_sleep_ms(100);
+    hs_wait_voice(f.wav, at + N, N, NULL, 0);
     kill(pid, SIGTERM);
     hs_assert_clean_exit(pid, f.err);
+    const double t1 = now_s();
     close(fd);
     assert_true(hs_file_contains(f.err, "stopping (drain)"));
 
@@ -183,8 +202,9 @@ static void sighup_keeps_old_table_on_corruption(void **state)
     assert_true(c > b);
     assert_plays(w, c, &new_t, 0);  /* the good reload took effect */
     assert_int_equal(hs_onset(w, frames, c + N), -1);
-    /* Clock pacing: the WAV length follows wall time (>= the 300 ms slept). */
-    assert_true(frames >= 48000 * 3 / 10);
+    /* Clock pacing: never more frames than the wall time the run took (and
+     * the buffer written ahead) allows; a loaded machine only makes fewer. */
+    assert_true(frames <= (sf_count_t)((t1 - t0) * 48000.0) + 2 * PREFILL);
     free(w);
     fw_table_free(&old_t);
     fw_table_free(&new_t);
@@ -206,14 +226,18 @@ static void live_triggers(int rewind)
     hs_write_board_extra(f.board, "S32_LE", "0,1,2,3,4,5,6,7", rewind ? "rewind = true\n" : "rewind = false\n");
     int fd;
     pid_t pid = hs_start_live(&f, 1, &fd);
-    hs_sleep_ms(20);
-    const sf_count_t triggers = 6;
+    enum { triggers = 6 };
+    struct hs_voice heard[triggers];
+    sf_count_t from = 0;
     for (int i = 0; i < triggers; i++) {
-        /* pairs 10 ms apart (B starts during A's 20.8 ms; far enough apart that a
-         * trigger thread held up by a loaded machine rarely reads both at once,
-         * which would merge them into one voice), pairs 60 ms apart */
+        /* Pairs: B is sent as soon as A's first frame is in the WAV, so it
+         * starts while A (20.8 ms) plays, and never in the same period as A
+         * (which would merge them into one voice), however loaded the
+         * machine; the next pair once B has played. */
         hs_send_focus(fd, t.ids[i % 2]);
-        hs_sleep_ms(i % 2 ? 60 : 10);
+        from = hs_wait_voice(f.wav, from, i % 2 ? N : 1, heard, (size_t)i);
+        heard[i] = voice_of(&t, (uint32_t)i % 2, from);
+        from++;
     }
     kill(pid, SIGTERM);
     hs_assert_clean_exit(pid, f.err);
@@ -235,7 +259,7 @@ static void live_triggers(int rewind)
     int32_t *w = hs_read_wav(f.wav, &frames, SF_FORMAT_PCM_32);
     int32_t *rest = malloc((size_t)frames * C * sizeof *rest);
     memcpy(rest, w, (size_t)frames * C * sizeof *rest);
-    sf_count_t from = 0;
+    from = 0;
     int off_grid = 0;
     for (int v = 0; v < triggers; v++) {
         /* A voice's onset: the first frame the voices found so far do not explain. */
@@ -247,10 +271,11 @@ static void live_triggers(int rewind)
         if (!rewind)
             assert_int_equal(at % PERIOD, 0);
         off_grid += at % PERIOD != 0;
-        /* Voices start in trigger order. How far apart depends on the sleeps
-         * between the triggers, which a loaded machine stretches: not asserted. */
+        /* Voices start in trigger order, where they were heard while it ran
+         * (how far apart depends on the machine: not asserted). */
         if (v > 0)
             assert_true(at > from);
+        assert_int_equal(at, heard[v].at);
         from = at;
     }
     /* Nothing else: every frame is exactly the sum of the voices found. */
@@ -274,6 +299,31 @@ static void live_without_rewind_starts_at_period(void **state)
     live_triggers(0);
 }
 
+/* Waits (10 s at most) until the WAV hapticd is writing has had a voice and
+ * then `frames` silent frames on end; returns the first of them. */
+static sf_count_t wait_quiet(const char *wav, sf_count_t frames)
+{
+    for (int i = 0; i < 1000; i++) {
+        sf_count_t n;
+        int32_t *w = hs_wav_snapshot(wav, &n);
+        sf_count_t end = n; /* one past the last non-zero frame */
+        while (end > 0) {
+            uint32_t c = 0;
+            while (c < C && !w[(end - 1) * C + c])
+                c++;
+            if (c < C)
+                break;
+            end--;
+        }
+        free(w);
+        if (end > 0 && n - end >= frames)
+            return end;
+        hs_sleep_ms(10);
+    }
+    fail_msg("%s never went quiet for %ld frames after a voice", wav, (long)frames);
+    return -1;
+}
+
 /* Signals racing the audio thread: triggers flow from the FIFO while SIGHUP
  * reloads the table twice, and SIGTERM arrives while the last voice plays,
  * so the main thread reloads, collects and waits for the drain while the
@@ -292,14 +342,27 @@ static void live_signals_race_the_audio_thread(void **state)
     int fd;
     pid_t pid = hs_start_live(&f, 1, &fd);
     const int triggers = 40;
-    for (int i = 0; i < triggers; i++) {
+    for (int i = 0; i < triggers - 1; i++) {
         hs_send_focus(fd, t.ids[i % 2]);
         if (i == 10 || i == 25)
             kill(pid, SIGHUP); /* same file: a good table, taken while voices play */
-        /* the last trigger alone, well after the others, so its voice is not merged */
-        hs_sleep_ms(i == triggers - 2 ? 40 : i == triggers - 1 ? 5 : 3);
+        /* The race itself: triggers 3 ms apart, so voices overlap (and may
+         * merge) while the reloads are taken. A pace, not a wait: nothing
+         * asserted depends on where the triggers fall. */
+        hs_sleep_ms(3);
     }
-    kill(pid, SIGTERM); /* the last voice (20.8 ms) started about 5 ms ago: it is still playing */
+    /* The last trigger alone, so its voice is not merged with another and
+     * starts after every other: once hapticd has read every trigger before
+     * it and the WAV has gone quiet after their voices. */
+    hs_wait_fifo_read(fd);
+    const sf_count_t quiet = wait_quiet(f.wav, N + 2 * PREFILL);
+    hs_send_focus(fd, t.ids[(triggers - 1) % 2]);
+    hs_wait_voice(f.wav, quiet, 1, NULL, 0);
+    /* SIGTERM as soon as the last voice (20.8 ms) is heard starting: it is
+     * still playing, and the drain must let it finish. (A machine so loaded
+     * that it ended meanwhile leaves the drain nothing to do; what is
+     * asserted below holds either way.) */
+    kill(pid, SIGTERM);
     hs_assert_clean_exit(pid, f.err);
     close(fd);
     assert_false(hs_file_contains(f.err, "ThreadSanitizer"));

@@ -26,31 +26,6 @@
 
 #define C 8u
 
-/* The whole stderr file (hs_file_contains reads its first 8 KiB). */
-static char *slurp(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = malloc((size_t)n + 1);
-    assert_non_null(buf);
-    assert_int_equal(fread(buf, 1, (size_t)n, f), (size_t)n);
-    buf[n] = '\0';
-    fclose(f);
-    *len = (size_t)n;
-    return buf;
-}
-
-static unsigned count_lines_with(const char *text, const char *needle)
-{
-    unsigned n = 0;
-    for (const char *p = text; (p = strstr(p, needle)); p += strlen(needle))
-        n++;
-    return n;
-}
-
 /* Nothing but printable text, tabs and newlines in what hapticd wrote. */
 static void assert_log_is_text(const char *text, size_t len)
 {
@@ -125,25 +100,54 @@ static void hostile_trigger_bytes_are_escaped_and_counted(void **state)
         assert_true(n > 0);
         at += (size_t)n;
     }
-    hs_sleep_ms(1100); /* a new flood window */
+    /* The guard's window is wall time (1 s from its first warning, the
+     * escape line's): the flood below must fall into a window of its own,
+     * so this sleep is the test's subject, not a wait for hapticd. It starts
+     * once the last of the three warnings is logged, so it holds on a loaded
+     * machine too. */
+    hs_wait_for(f.err, "line of 1048575 bytes");
+    hs_sleep_ms(1100);
     for (int i = 0; i < 1000; i++) {
         static const char bad[] = "wiggle 3\n";
         assert_int_equal(write(fd, bad, sizeof bad - 1), (ssize_t)(sizeof bad - 1));
     }
-    hs_sleep_ms(1100);
+    hs_wait_fifo_read(fd);
     hs_send_focus(fd, t.ids[0]);
-    hs_sleep_ms(100);
+    hs_wait_voice(f.wav, 0, 480, NULL, 0); /* played: the trigger thread took it */
     kill(pid, SIGTERM);
     hs_assert_clean_exit(pid, f.err);
     close(fd);
     size_t len;
-    char *log = slurp(f.err, &len);
+    char *log = hs_slurp(f.err, &len);
     assert_log_is_text(log, len);
     assert_non_null(strstr(log, "unknown command '\\x1b]0;PWNED\\x07'"));
     assert_non_null(strstr(log, ":2: a NUL byte at column 8: not a text line (ignored)"));
-    assert_int_equal(count_lines_with(log, "line of 1048575 bytes, longer than 510"), 1);
-    assert_int_equal(count_lines_with(log, "unknown command 'wiggle'"), 10);
-    assert_non_null(strstr(log, "990 more bad lines not shown"));
+    assert_int_equal(hs_count(log, "line of 1048575 bytes, longer than 510"), 1);
+    /* At most 10 warnings a window, then a count of the rest: 10 and "990
+     * more" when the 1000 lines are read within a second, as they are; a
+     * loaded machine may spread them over more windows, each of which then
+     * shows at most 10 before its count. */
+    unsigned shown = 0, not_shown = 0, summaries = 0;
+    for (const char *seg = log;;) {
+        const char *end = strstr(seg, " more bad lines not shown");
+        unsigned in_window = 0;
+        for (const char *p = seg; (p = strstr(p, "unknown command 'wiggle'")) && (!end || p < end); p++)
+            in_window++;
+        assert_true(in_window <= 10);
+        shown += in_window;
+        if (!end)
+            break;
+        const char *q = end;
+        while (q > log && q[-1] >= '0' && q[-1] <= '9')
+            q--;
+        not_shown += (unsigned)strtoul(q, NULL, 10);
+        summaries++;
+        seg = end + 1;
+    }
+    assert_true(summaries >= 1);
+    assert_int_equal(shown + not_shown, 1000);
+    if (summaries == 1)
+        assert_non_null(strstr(log, "990 more bad lines not shown"));
     assert_int_equal(hs_report_value(f.report, "triggers"), 1); /* only the good one played */
     free(log);
     fw_table_free(&t);
@@ -177,8 +181,8 @@ static void long_board_comment_is_refused(void **state)
 static void check_refuses_a_huge_non_table_without_reading_it(void **state)
 {
     (void)state;
-#if defined(HAPTIC_ASAN)
-    skip();
+#if defined(HAPTIC_ASAN) || defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    skip(); /* the tsan preset does not set HAPTIC_ASAN: hapticd is built with the same flags as this test */
 #else
     char path[400];
     hs_path(path, sizeof path, "sparse.htab");
@@ -224,12 +228,12 @@ static void failing_device_ends_the_daemon(void **state)
     pid_t pid = hs_spawn(argv, f.err);
     assert_int_equal(wait_exit_within(pid, 10), 1);
     size_t len;
-    char *log = slurp(f.err, &len);
+    char *log = hs_slurp(f.err, &len);
     assert_log_is_text(log, len);
     assert_non_null(strstr(log, "failed for 3 s without a second's rest: giving up"));
-    assert_int_equal(count_lines_with(log, "ALSA lib "), 0); /* nothing printed by libasound itself */
-    assert_true(count_lines_with(log, "libasound: ") >= 1);
-    assert_true(count_lines_with(log, "libasound: ") <= 2);
+    assert_int_equal(hs_count(log, "ALSA lib "), 0); /* nothing printed by libasound itself */
+    assert_true(hs_count(log, "libasound: ") >= 1);
+    assert_true(hs_count(log, "libasound: ") <= 2);
     free(log);
     fw_table_free(&t);
 }
@@ -258,8 +262,8 @@ static void unpaced_and_missing_devices_are_named(void **state)
                      "--alsa-device", "nosuchpcm", NULL};
     assert_int_equal(wait_exit_within(hs_spawn(argv2, f.err), 10), 1);
     size_t len;
-    char *log = slurp(f.err, &len);
-    assert_int_equal(count_lines_with(log, "\n"), 1);
+    char *log = hs_slurp(f.err, &len);
+    assert_int_equal(hs_count(log, "\n"), 1);
     assert_non_null(strstr(log, "cannot open ALSA device 'nosuchpcm'"));
     assert_non_null(strstr(log, "(libasound: snd_pcm_open_noupdate: Unknown PCM nosuchpcm)"));
     free(log);

@@ -423,10 +423,12 @@ static void ring_peek_and_release(void **state)
     assert_false(hd_spsc_peek(&r, 3, &ev));
     hd_spsc_release(&r, 2);
     assert_false(hd_spsc_empty(&r));
-    assert_true(hd_spsc_pop(&r, &ev));
+    assert_true(hd_spsc_peek(&r, 0, &ev)); /* the one left is now the oldest */
     assert_int_equal(ev.focus_ids[0], 2);
+    assert_false(hd_spsc_peek(&r, 1, &ev));
+    hd_spsc_release(&r, 1);
     assert_true(hd_spsc_empty(&r));
-    assert_false(hd_spsc_pop(&r, &ev));
+    assert_false(hd_spsc_peek(&r, 0, &ev));
 }
 
 /* What the main thread's drain waits for, from the published state only:

@@ -97,6 +97,13 @@ static void maps(void **state)
     hd_touch_map_apply(&m, 500, 250, &x, &y);
     assert_true(fabs(x - 0.35) < 1e-12 && fabs(y - 0.45) < 1e-12);
     assert_int_equal(hd_touch_map_from_area(5, 5, 0, 500, area, &m), -EINVAL);
+    /* Finite points whose map is not (found by the board fuzzer: a plate
+     * 1e308 apart made a coefficient -inf, and no touch ever played). */
+    const double far_panel[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+    const double far_plate[3][2] = {{1e308, 0}, {-1e308, 0}, {0, 0}};
+    assert_int_equal(hd_touch_map_from_points(&far_panel[0][0], &far_plate[0][0], &m), -EINVAL);
+    const double far_area[4] = {-1e308, 0, 1e308, 1};
+    assert_int_equal(hd_touch_map_from_area(0, 1000, 0, 500, far_area, &m), -EINVAL);
 }
 
 static void nearest_and_range(void **state)
