@@ -160,7 +160,10 @@ int hd_audio_loop_script(struct hd_audio_loop *l, const struct hd_script *s, uns
             break;
         }
     }
-    hd_log(LOG_INFO, "script done: %llu frames written, %llu voices", (unsigned long long)hd_engine_frame(e),
-           (unsigned long long)atomic_load(&e->stats.voices_started));
+    hd_log(LOG_INFO, "script done: %llu frames written, %llu voices (%llu lowered, %llu skipped by the exciters' "
+                     "ratings)",
+           (unsigned long long)hd_engine_frame(e), (unsigned long long)atomic_load(&e->stats.voices_started),
+           (unsigned long long)atomic_load(&e->stats.voices_attenuated),
+           (unsigned long long)atomic_load(&e->stats.voices_skipped));
     return rc;
 }

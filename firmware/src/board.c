@@ -3,6 +3,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include "board.h"
 
+#include "protect.h"
 #include "text.h"
 #include "touch.h"
 
@@ -291,6 +292,45 @@ static int parse_doubles(const char *s, double *out, unsigned n)
     return *p ? -EINVAL : 0;
 }
 
+/* "3" or "3, 3, 2.5": 1..HD_MAX_CHANNELS numbers in (lo, hi]. */
+static int rating_key(struct parse_ctx *c, const char *section, const char *name, const char *value, double lo,
+                      double hi, double *out, unsigned *count)
+{
+    const char *p = value;
+    unsigned n = 0;
+    for (;;) {
+        char *end;
+        errno = 0;
+        double v = strtod(p, &end);
+        if (errno || end == p || !(v > lo) || !(v <= hi) || n == HD_MAX_CHANNELS)
+            return bad(c, section, name, "'%s' is not one number or a list of up to %u, each in (%g, %g]", value,
+                       HD_MAX_CHANNELS, lo, hi);
+        out[n++] = v;
+        p = end;
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (!*p)
+            break;
+        if (*p++ != ',')
+            return bad(c, section, name, "'%s' is not one number or a list of up to %u, each in (%g, %g]", value,
+                       HD_MAX_CHANNELS, lo, hi);
+    }
+    *count = n;
+    return 1;
+}
+
+static int exciters_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
+{
+    struct hd_exciters_board *e = &c->b->exciters;
+    if (!strcmp(name, "rated_power_w"))
+        return rating_key(c, section, name, value, 0.0, 1000.0, e->rated_power_w, &e->power_count);
+    if (!strcmp(name, "impedance_ohm"))
+        return rating_key(c, section, name, value, 0.0, 1000.0, e->impedance_ohm, &e->impedance_count);
+    if (!strcmp(name, "thermal_tau_s"))
+        return rating_key(c, section, name, value, 0.0, 3600.0, e->tau_s, &e->tau_count);
+    return bad(c, section, name, "unknown key");
+}
+
 static int touch_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
 {
     struct hd_touch_board *t = &c->b->touch;
@@ -343,6 +383,15 @@ static int handler(void *user, const char *section, const char *name, const char
             return copy_str(c, section, name, b->gpio_chip, sizeof b->gpio_chip, value);
         if (!strcmp(name, "lockout_ms"))
             UINT_KEY(b->lockout_ms, 0, 10000);
+        return bad(c, section, name, "unknown key");
+    }
+    if (!strcmp(section, "exciters")) {
+        b->exciters.enabled = true;
+        return exciters_key(c, section, name, value);
+    }
+    if (!strcmp(section, "amplifier")) {
+        if (!strcmp(name, "full_scale_v"))
+            return number_key(c, section, name, value, 0.0, false, 1000.0, &b->amp_full_scale_v);
         return bad(c, section, name, "unknown key");
     }
     if (!strcmp(section, "mixer")) {
@@ -437,7 +486,37 @@ static int cross_check(struct parse_ctx *c)
     }
     if (b->line_count > 0 && !b->gpio_chip[0])
         return bad(c, "gpio", "chip", "missing but [line N] sections are present");
+    const struct hd_exciters_board *e = &b->exciters;
+    if (e->enabled) {
+        if (!e->power_count)
+            return bad(c, "exciters", "rated_power_w", "missing (the exciters' RMS power rating, W)");
+        if (!e->impedance_count)
+            return bad(c, "exciters", "impedance_ohm", "missing (the exciters' nominal impedance, ohm)");
+        if (!(b->amp_full_scale_v > 0))
+            return bad(c, "amplifier", "full_scale_v", "missing: [exciters] needs the amplifier's output at full scale");
+        const unsigned counts[] = {e->power_count, e->impedance_count, e->tau_count};
+        const char *keys[] = {"rated_power_w", "impedance_ohm", "thermal_tau_s"};
+        for (int k = 0; k < 3; k++)
+            if (counts[k] > 1 && counts[k] != b->map_count)
+                return bad(c, "exciters", keys[k], "%u values for %u exciters ([alsa] channel_map): give one or %u",
+                           counts[k], b->map_count, b->map_count);
+    } else if (b->amp_full_scale_v > 0) {
+        return bad(c, "amplifier", "full_scale_v", "given without [exciters] ratings to enforce");
+    }
     return 0;
+}
+
+int hd_board_exciter_ratings(const struct hd_board *b, struct hd_exciter_rating *out, unsigned n)
+{
+    const struct hd_exciters_board *e = &b->exciters;
+    if (!e->enabled)
+        return 0;
+    for (unsigned k = 0; k < n; k++) {
+        out[k].rated_power_w = e->rated_power_w[e->power_count > 1 ? k : 0];
+        out[k].impedance_ohm = e->impedance_ohm[e->impedance_count > 1 ? k : 0];
+        out[k].tau_s = e->tau_count ? e->tau_s[e->tau_count > 1 ? k : 0] : HD_PROTECT_DEFAULT_TAU_S;
+    }
+    return 1;
 }
 
 static void set_dir(struct parse_ctx *c, const char *path)

@@ -59,6 +59,16 @@ struct hd_board {
     } touch;
     /* [mixer] */
     double gain_limit;             /* upper bound of the mix gain g (1 = table full scale) */
+    /* [exciters] and [amplifier]: the ratings hapticd enforces (protect.h);
+     * per exciter in the table's channel order, one value meaning all */
+    struct hd_exciters_board {
+        bool enabled;              /* [exciters] is present */
+        unsigned power_count, impedance_count, tau_count;
+        double rated_power_w[HD_MAX_CHANNELS];
+        double impedance_ohm[HD_MAX_CHANNELS];
+        double tau_s[HD_MAX_CHANNELS];
+    } exciters;
+    double amp_full_scale_v;       /* [amplifier] full_scale_v: peak volts at digital full scale; 0 if not given */
     /* [panel]: the panel the table plays on, against the plate it was
      * calibrated for (speed compensation, panel.h) */
     struct hd_panel_board {
@@ -90,6 +100,11 @@ int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX]);
 
 /* Parse board text held in memory; `path` is used for messages and relative paths. */
 int hd_board_parse_string(const char *text, const char *path, struct hd_board *b, char err[HD_ERR_MAX]);
+
+struct hd_exciter_rating;
+/* The [exciters] ratings per table channel (exciter) k < n, the one-value
+ * forms spread: 1 and *out filled, or 0 when the board has none. */
+int hd_board_exciter_ratings(const struct hd_board *b, struct hd_exciter_rating *out, unsigned n);
 
 /* Parse "1,4, 7" into at most `max` unsigned values (each <= limit). Returns the count or -EINVAL. */
 int hd_parse_uint_list(const char *s, uint32_t *out, unsigned max, uint32_t limit);

@@ -3,6 +3,7 @@
 #include "player.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -15,6 +16,17 @@ int hd_player_init(struct hd_player *pl, const struct hd_board *b)
     pl->map_count = b->map_count;
     memcpy(pl->channel_map, b->channel_map, sizeof pl->channel_map);
     pl->gain_limit = b->gain_limit;
+    pl->rate_hz = b->rate_hz;
+    struct hd_exciter_rating rating[HD_MAX_CHANNELS], on_device[HD_MAX_CHANNELS];
+    if (hd_board_exciter_ratings(b, rating, b->map_count)) {
+        /* Exciter k (the table's channel k) is wired to device channel map[k]. */
+        memset(on_device, 0, sizeof on_device);
+        for (uint32_t k = 0; k < b->map_count; k++)
+            on_device[b->channel_map[k]] = rating[k];
+        if (hd_protect_init(&pl->protect, b->channels, on_device, b->amp_full_scale_v, b->rate_hz) != 0)
+            return -EINVAL;
+        pl->protected = 1;
+    }
     pl->acc = calloc((size_t)pl->frames_max * pl->channels, sizeof *pl->acc);
     return pl->acc ? 0 : -ENOMEM;
 }
@@ -66,6 +78,43 @@ void hd_player_start_mix(struct hd_player *pl, const struct hd_program *p, const
     pl->stats.voices_started++;
 }
 
+static uint64_t device_ns(const struct hd_player *pl, uint64_t frame)
+{
+    return (uint64_t)((double)frame * 1e9 / pl->rate_hz);
+}
+
+/* sum_k gain sqrt(E_k,c) of a mix, added per device channel into root. */
+static void add_root(const struct hd_player *pl, const struct hd_program *p, const struct hd_mix *m, double gain,
+                     double *root)
+{
+    const uint32_t C = p->channel_count;
+    for (uint32_t k = 0; k < m->count; k++)
+        for (uint32_t c = 0; c < C; c++)
+            root[pl->channel_map[c]] += gain * p->root_energy[(size_t)m->index[k] * C + c];
+}
+
+/* The coils' heat admits the voice at its gain, lowers it, or skips it
+ * (0): the heat measured so far, and the energy still to come from the
+ * voices playing and this one (protect.h). */
+static int admit(struct hd_player *pl, const struct hd_program *p, struct hd_mix *m)
+{
+    double playing[HD_MAX_CHANNELS] = {0}, fresh[HD_MAX_CHANNELS] = {0};
+    for (unsigned i = 0; i < HD_MAX_VOICES; i++) {
+        const struct hd_voice *v = &pl->voices[i];
+        if (v->program && voice_end(v) > pl->frame)
+            add_root(pl, v->program, &v->mix, v->mix.gain, playing);
+    }
+    add_root(pl, p, m, 1.0, fresh);
+    const double g = hd_protect_admit(&pl->protect, device_ns(pl, pl->frame), playing, fresh, m->gain, 0.0);
+    if (g <= 0.0)
+        return 0;
+    if (g < m->gain) {
+        m->gain = g;
+        m->gain_q30 = (int64_t)llround(g * (double)(1 << HAPTIC_MIX_GAIN_FRAC_BITS));
+    }
+    return 1;
+}
+
 int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint32_t *ids, uint32_t count)
 {
     struct hd_mix m;
@@ -89,6 +138,8 @@ int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint
         m.index[m.count++] = (uint32_t)idx;
     }
     if (m.count == 0 || hd_mixer_gain(p, pl->gain_limit, &m) != 0)
+        return 0;
+    if (pl->protected && !admit(pl, p, &m))
         return 0;
     hd_player_start_mix(pl, p, &m);
     return 1;
@@ -128,6 +179,8 @@ void hd_player_render(struct hd_player *pl, void *out, uint32_t frames)
         if (lo < hi)
             render_voice(pl, v, lo, hi, pl->acc + (size_t)(lo - f0) * pl->channels);
     }
+    if (pl->protected)
+        hd_protect_played(&pl->protect, pl->acc, frames, pl->channels, device_ns(pl, f1));
     pl->stats.clipped_samples += pl->format == HD_FMT_S16_LE ? hd_mixer_to_s16(pl->acc, out, n)
                                                              : hd_mixer_to_s32(pl->acc, out, n);
     pl->frame = f1;

@@ -21,6 +21,7 @@
 #define HD_PLAYER_H
 
 #include "mixer.h"
+#include "protect.h"
 
 #include <stdint.h>
 
@@ -44,6 +45,9 @@ struct hd_player {
     uint32_t map_count;
     uint32_t channel_map[HD_MAX_CHANNELS];
     double gain_limit;
+    uint32_t rate_hz;
+    struct hd_protect protect;          /* the exciters' ratings (protect.h) */
+    int protected;                      /* the board has [exciters]: every voice is admitted by `protect` */
     int64_t *acc;                       /* [frames_max][channels], allocated once at init */
     uint64_t frame;                     /* next device frame render writes */
     uint64_t committed;                 /* frames before this are never rendered again */
@@ -55,8 +59,11 @@ int hd_player_init(struct hd_player *pl, const struct hd_board *b);
 void hd_player_free(struct hd_player *pl);
 
 /* Start one voice playing the union of the given focus ids (resolved in p;
- * unknown ids are skipped and counted). Returns 1 if a voice started, 0 if
- * nothing was playable. Real-time safe. */
+ * unknown ids are skipped and counted). On a board with [exciters] ratings
+ * the voice is admitted by the coils' heat (protect.h; the device timeline's
+ * frame is the clock): played at its gain, lowered, or skipped. Returns 1 if
+ * a voice started, 0 if nothing was playable or protection skipped it.
+ * Real-time safe. */
 int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint32_t *ids, uint32_t count);
 
 /* Start a voice from a precomputed mix (tests, benchmarks). */

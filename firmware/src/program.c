@@ -59,6 +59,22 @@ static int compute_block_peaks(struct hd_program *p)
     for (uint32_t f = 0; f < p->focus_count; f++)
         haptic_mix_block_peaks(hd_program_signal(p, f), p->samples, p->channel_count,
                                p->block_peak + (size_t)f * p->blocks * p->channel_count);
+    /* Each drive's energy per channel, for the exciters' ratings. */
+    free(p->root_energy);
+    p->root_energy = calloc((size_t)p->focus_count * p->channel_count, sizeof *p->root_energy);
+    if (!p->root_energy)
+        return -ENOMEM;
+    for (uint32_t f = 0; f < p->focus_count; f++) {
+        const int16_t *s = hd_program_signal(p, f);
+        double *e = p->root_energy + (size_t)f * p->channel_count;
+        for (uint32_t n = 0; n < p->samples; n++)
+            for (uint32_t c = 0; c < p->channel_count; c++) {
+                const double v = s[(size_t)n * p->channel_count + c];
+                e[c] += v * v;
+            }
+        for (uint32_t c = 0; c < p->channel_count; c++)
+            e[c] = sqrt(e[c]);
+    }
     return 0;
 }
 
@@ -207,6 +223,7 @@ void hd_program_free(struct hd_program *p)
     haptic_table_close(&p->table);
     free(p->by_id);
     free(p->block_peak);
+    free(p->root_energy);
     free(p->stretched);
     free(p->gram);
     free(p);

@@ -26,6 +26,7 @@ struct hd_program {
     struct hd_focus_key *by_id;  /* sorted by id */
     uint32_t blocks;             /* ceil(samples / HD_PEAK_BLOCK) */
     uint16_t *block_peak;        /* [focus][block][channel]: max |s| in that block (<= 32768) */
+    double *root_energy;         /* [focus][channel]: sqrt(sum_n s[n][c]^2), the exciters' heat (protect.h) */
     double speed_ratio;          /* the drives play this many times as fast as stored (1: as stored) */
     int16_t *stretched;          /* [focus][n][c], `samples` frames; NULL at speed ratio 1 */
     double *gram;                /* [focus][focus] of `stretched`; NULL at speed ratio 1 */

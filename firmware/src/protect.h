@@ -6,22 +6,28 @@
  * (resistive model: the nominal impedance Z). The coil heats and cools with
  * one time constant tau (first-order thermal model): its heat, in watts of
  * steady power, is the power averaged with an exponential window of tau,
- *     heat(t) = heat(t0) exp(-(t - t0) / tau) + (energy delivered since) / tau,
+ *     heat(t) = integral p(s) exp(-(t - s) / tau) ds / tau,
  * and the rating holds while heat <= rated_power_w (the data sheet's RMS
  * power): a steady drive at the rated power sits at the limit, a short burst
  * may be stronger as long as the average over tau stays within it.
  *
- * A voice is admitted at its start with the whole of its energy counted at
- * once (an upper bound of the heat it causes, whenever it is delivered),
- * bounded per channel by Cauchy-Schwarz for a mix of K foci:
- *     E_c(g) <= g^2 (sum_k sqrt(E_kc))^2,  E_kc = sum_n s_k[n][c]^2,
- * so no combination of touches can heat a coil past its rating. When the
- * voice's gain would, it is lowered to the largest gain that fits; when that
- * is below `min_gain` (the caller's floor: a voice that cannot be felt is not
- * worth the heat), or below HD_PROTECT_SKIP_BELOW of the gain asked (-60 dB:
- * nothing left to play), the voice is skipped. Both are counted.
+ * The heat is measured, not assumed: every rendered period's energy per
+ * channel (before the device format's saturation) enters it at the period's
+ * end (hd_protect_played), so overlapping voices count with their true sum,
+ * coherent or not. A new voice is admitted against a bound of the future:
+ * the energy still to come from the voices playing and from the new one,
+ * by Minkowski's inequality at most (sum_v g_v sqrt(E_v,c))^2 on channel c
+ * (E_v,c the voice's whole energy per gain^2, a bound of what remains), so
+ *     heat_now + (R_playing + g R_new)^2 J / tau <= rated_power_w
+ * (J: joules per count^2) keeps the heat within the rating at every later
+ * time whatever the voices' phases, since every later weight is at most 1.
+ * When the voice's gain would break it, it is lowered to the largest gain
+ * that keeps it; below `min_gain` (the caller's floor: a voice that cannot
+ * be felt is not worth the heat), or below HD_PROTECT_SKIP_BELOW of the gain
+ * asked (-60 dB: nothing left to play), the voice is skipped. Both counted.
  *
- * Pure and real-time safe: no allocation, no lock, no I/O. */
+ * Pure and real-time safe: no allocation, no lock, no I/O. Times are the
+ * device timeline's (frames / rate). */
 #ifndef HD_PROTECT_H
 #define HD_PROTECT_H
 
@@ -40,11 +46,9 @@ struct hd_exciter_rating {
 
 struct hd_protect {
     uint32_t channels;
-    double full_scale_v;
-    uint32_t rate_hz;
     struct hd_exciter_rating rating[HD_MAX_CHANNELS];
     double joules_per_count2[HD_MAX_CHANNELS]; /* (V/32767)^2 / Z / rate: one sample's energy per count^2 */
-    double heat_w[HD_MAX_CHANNELS];            /* heat state at t_ns */
+    double heat_w[HD_MAX_CHANNELS];            /* heat at t_ns */
     uint64_t t_ns;
     uint64_t attenuated, skipped;
 };
@@ -58,11 +62,15 @@ int hd_protect_init(struct hd_protect *pr, uint32_t channels, const struct hd_ex
 /* The heat of channel c at now_ns (watts of steady power). */
 double hd_protect_heat_w(const struct hd_protect *pr, uint32_t c, uint64_t now_ns);
 
-/* Admit a voice at now_ns: root_energy[c] = sum_k sqrt(E_kc) for device
- * channel c (table counts; 0 for a channel the voice does not drive), at the
- * requested gain. Returns the gain it may play at (<= gain; 0: skipped) and
- * commits the heat of that gain. */
-double hd_protect_admit(struct hd_protect *pr, uint64_t now_ns, const double *root_energy, double gain,
-                        double min_gain);
+/* What was played: `frames` rows of `stride` Q30 accumulators (table counts
+ * * 2^30, device channel order), ending at end_ns. */
+void hd_protect_played(struct hd_protect *pr, const int64_t *acc, uint32_t frames, uint32_t stride, uint64_t end_ns);
+
+/* Admit a voice at now_ns. Per device channel c: playing_root[c] =
+ * sum over the voices still playing of gain_v sqrt(E_v,c), new_root[c] =
+ * sqrt(E_new,c) at gain 1 (table counts). Returns the gain the voice may
+ * play at (<= gain; 0: skipped). */
+double hd_protect_admit(struct hd_protect *pr, uint64_t now_ns, const double *playing_root, const double *new_root,
+                        double gain, double min_gain);
 
 #endif

@@ -24,6 +24,29 @@ void hd_stats_log(struct hd_engine *e, struct hd_counters *last)
         .dropped_events = atomic_load(&e->ring.dropped),
         .rewind_error = atomic_load(&s->rewind_error),
     };
+    now.attenuated = atomic_load(&s->voices_attenuated);
+    now.skipped = atomic_load(&s->voices_skipped);
+    now.in_burst = last->in_burst;
+    now.burst_attenuated0 = last->burst_attenuated0;
+    now.burst_skipped0 = last->burst_skipped0;
+    now.quiet_looks = last->quiet_looks;
+    if (now.attenuated != last->attenuated || now.skipped != last->skipped) {
+        if (!now.in_burst) {
+            hd_log(LOG_WARNING, "exciter protection engaged: voices lowered or skipped to keep the exciters within "
+                                "their ratings ([exciters] in the board file)");
+            now.in_burst = 1;
+            now.burst_attenuated0 = last->attenuated;
+            now.burst_skipped0 = last->skipped;
+        }
+        now.quiet_looks = 0;
+    } else if (now.in_burst && ++now.quiet_looks >= HD_STATS_BURST_QUIET) {
+        hd_log(LOG_WARNING, "exciter protection: burst over, %llu voices lowered and %llu skipped in it (%llu and "
+                            "%llu in total)",
+               (unsigned long long)(now.attenuated - now.burst_attenuated0),
+               (unsigned long long)(now.skipped - now.burst_skipped0), (unsigned long long)now.attenuated,
+               (unsigned long long)now.skipped);
+        now.in_burst = 0;
+    }
     if (now.rewind_error && !last->rewind_error) /* once: rewinding stays off */
         hd_log(LOG_WARNING, "ALSA rewind failed (%s): triggers now start at the next period boundary",
                snd_strerror(now.rewind_error));

@@ -11,7 +11,13 @@
 struct hd_counters {
     uint64_t xruns, write_errors, stolen, clipped, unknown, dropped_foci, dropped_events;
     int rewind_error;
+    /* The exciters' protection, logged once per burst: when it engages, and
+     * when a burst is over (HD_STATS_BURST_QUIET looks without a change). */
+    uint64_t attenuated, skipped, burst_attenuated0, burst_skipped0;
+    unsigned quiet_looks;
+    int in_burst;
 };
+#define HD_STATS_BURST_QUIET 5u /* looks of 0.2 s: a burst ends after 1 s without a protected voice */
 
 /* Log every counter that changed since *last, then update *last. */
 void hd_stats_log(struct hd_engine *e, struct hd_counters *last);

@@ -1,6 +1,7 @@
 /* board.ini: every key, and every bad value gives a one-line error naming the file and the key. */
 #define _POSIX_C_SOURCE 200809L /* mkdtemp, mkfifo */
 #include "board.h"
+#include "protect.h"
 
 #include <errno.h>
 #include <math.h>
@@ -43,6 +44,12 @@ static const char *full =
     "bias = disable\n"
     "[mixer]\n"
     "gain_limit = 0.5\n"
+    "[exciters]\n"
+    "rated_power_w = 3, 3, 3, 3, 2, 2, 2, 2.5\n"
+    "impedance_ohm = 4\n"
+    "thermal_tau_s = 1.5\n"
+    "[amplifier]\n"
+    "full_scale_v = 8.5\n"
     "[panel]\n"
     "speed_ratio = 0.987\n"
     "temperature_input = /sys/class/hwmon/hwmon2/temp1_input\n"
@@ -90,6 +97,13 @@ static void every_key(void **state)
     assert_false(b.lines[2].active_low);
     assert_int_equal(b.lines[2].bias, HD_BIAS_DISABLE);
     assert_true(b.gain_limit == 0.5);
+    /* Ratings per exciter, the one-value forms spread over all 8. */
+    struct hd_exciter_rating r[8];
+    assert_int_equal(hd_board_exciter_ratings(&b, r, 8), 1);
+    assert_true(r[0].rated_power_w == 3 && r[4].rated_power_w == 2 && r[7].rated_power_w == 2.5);
+    for (unsigned k = 0; k < 8; k++)
+        assert_true(r[k].impedance_ohm == 4 && r[k].tau_s == 1.5);
+    assert_true(b.amp_full_scale_v == 8.5);
     assert_true(b.panel.speed_ratio == 0.987);
     assert_string_equal(b.panel.temperature_input, "/sys/class/hwmon/hwmon2/temp1_input");
     assert_true(b.panel.temperature_poll_s == 2.5 && b.panel.temperature_step_k == 0.25);
@@ -117,6 +131,8 @@ static void defaults(void **state)
     assert_int_equal(b.rewind_margin_frames, 32);
     assert_int_equal(b.line_count, 0);
     assert_true(b.gain_limit == 1.0);
+    struct hd_exciter_rating r[8];
+    assert_int_equal(hd_board_exciter_ratings(&b, r, 8), 0); /* no [exciters]: not protected */
     assert_true(b.panel.speed_ratio == 1.0);
     assert_string_equal(b.panel.temperature_input, "");
     assert_true(b.panel.temperature_poll_s == 10.0 && b.panel.temperature_step_k == 0.5);
@@ -190,6 +206,17 @@ static const struct bad_case cases[] = {
     {"[gpio]\nchip = 0\n[line 1024]\nfoci = 1\n", "[line 1024] foci", 6},
     {"[line 3]\nfoci = 1\n", "[gpio] chip", 0},
     {"[mixer]\ngain_limit = 0\n", "[mixer] gain_limit", 4},
+    {"[exciters]\nrated_power_w = 0\n", "[exciters] rated_power_w", 4},
+    {"[exciters]\nrated_power_w = 3,,3\n", "[exciters] rated_power_w", 4},
+    {"[exciters]\nimpedance_ohm = -4\n", "[exciters] impedance_ohm", 4},
+    {"[exciters]\nthermal_tau_s = inf\n", "[exciters] thermal_tau_s", 4},
+    {"[exciters]\nwatts = 3\n", "[exciters] watts", 4},
+    {"[exciters]\nimpedance_ohm = 4\n[amplifier]\nfull_scale_v = 10\n", "[exciters] rated_power_w", 0},
+    {"[exciters]\nrated_power_w = 3\n[amplifier]\nfull_scale_v = 10\n", "[exciters] impedance_ohm", 0},
+    {"[exciters]\nrated_power_w = 3\nimpedance_ohm = 4\n", "[amplifier] full_scale_v", 0},
+    {"[exciters]\nrated_power_w = 3,3\nimpedance_ohm = 4\n[amplifier]\nfull_scale_v = 10\n", "2 values for 8 exciters", 0},
+    {"[amplifier]\nfull_scale_v = 10\n", "given without [exciters]", 0},
+    {"[amplifier]\nfull_scale_v = 0\n", "[amplifier] full_scale_v", 4},
     {"[mixer]\ngain_limit = 17\n", "[mixer] gain_limit", 4},
     {"[mixer]\ngain_limit = nan\n", "[mixer] gain_limit", 4},
     {"[mixer]\ngain_limit = 1x\n", "[mixer] gain_limit", 4},
