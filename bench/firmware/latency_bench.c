@@ -3,9 +3,12 @@
  * of snd_pcm_writei with the voice's first period), over >= 10^4 triggers
  * sent at random intervals through a FIFO to hapticd on the host-sim board
  * (ALSA file plugin, clock-paced). Also hapticd's resident memory.
- *   hapticd_latency_bench [triggers (10000)] [rt-priority (0)] [period_frames (64)] [rewind (1)]
+ *   hapticd_latency_bench [triggers (10000)] [rt-priority (0)] [period_frames (64)] [rewind (1)] [protect (0)]
  * rewind 0 writes `rewind = false` in the board: triggers start at the next
- * period boundary (the behaviour before rewinding, for comparison). */
+ * period boundary (the behaviour before rewinding, for comparison).
+ * protect 1 adds [exciters] ratings (1000 W into 4 ohm behind a 10 V
+ * amplifier: the budget is computed for every voice and every period but
+ * never binds), so the two runs compare what protection costs the path. */
 #define _GNU_SOURCE
 #include "bench_table.h"
 
@@ -28,6 +31,7 @@ int main(int argc, char **argv)
     const char *prio = argc > 2 ? argv[2] : "0";
     const char *period = argc > 3 ? argv[3] : "64";
     const int rewind = argc > 4 ? atoi(argv[4]) : 1;
+    const int protect = argc > 5 ? atoi(argv[5]) : 0;
     char dir[] = "/tmp/hapticd-lat-XXXXXX";
     if (!mkdtemp(dir))
         return 1;
@@ -43,8 +47,9 @@ int main(int argc, char **argv)
         return 1;
     FILE *bf = fopen(board, "w");
     fprintf(bf, "[alsa]\ndevice = hostsim\nconfig = %.*s/asoundrc\nperiod_frames = %s\npacing = clock\nrewind = %s\n"
-                "[realtime]\nmlock = false\n",
-            (int)(strrchr(HOSTSIM_BOARD, '/') - HOSTSIM_BOARD), HOSTSIM_BOARD, period, rewind ? "true" : "false");
+                "[realtime]\nmlock = false\n%s",
+            (int)(strrchr(HOSTSIM_BOARD, '/') - HOSTSIM_BOARD), HOSTSIM_BOARD, period, rewind ? "true" : "false",
+            protect ? "[exciters]\nrated_power_w = 1000\nimpedance_ohm = 4\n[amplifier]\nfull_scale_v = 10\n" : "");
     fclose(bf);
     char *args[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device,
                     "--latency-report", report, "--rt-priority", (char *)prio, NULL};
@@ -76,8 +81,9 @@ int main(int argc, char **argv)
     if (!f)
         return 1;
     char buf[256];
-    printf("hapticd host-sim, FIFO triggers at random 1-3 ms intervals, period %s frames, rt priority %s, rewind %s\n",
-           period, prio, rewind ? "on" : "off");
+    printf("hapticd host-sim, FIFO triggers at random 1-3 ms intervals, period %s frames, rt priority %s, rewind %s, "
+           "exciter protection %s\n",
+           period, prio, rewind ? "on" : "off", protect ? "on" : "off");
     long rss = 0, hwm = 0, anon = 0, table_bytes = 0;
     while (fgets(buf, sizeof buf, f)) {
         fputs(buf, stdout);
