@@ -46,6 +46,8 @@ void hd_board_defaults(struct hd_board *b)
     b->rewind_margin_frames = 32;
     b->lockout_ms = 50;
     b->gain_limit = 1.0;
+    b->max_foci = HD_DEFAULT_MAX_FOCI;
+    b->foci_policy = HD_FOCI_NEWEST;
     b->panel.speed_ratio = 1.0;
     b->panel.temperature_poll_s = 10.0;
     b->panel.temperature_step_k = 0.5;
@@ -397,6 +399,17 @@ static int handler(void *user, const char *section, const char *name, const char
     if (!strcmp(section, "mixer")) {
         if (!strcmp(name, "gain_limit"))
             return number_key(c, section, name, value, 0.0, false, 16.0, &b->gain_limit);
+        if (!strcmp(name, "max_foci"))
+            UINT_KEY(b->max_foci, 1, HD_MAX_VOICE_FOCI);
+        if (!strcmp(name, "foci_policy")) {
+            if (!strcmp(value, "newest"))
+                b->foci_policy = HD_FOCI_NEWEST;
+            else if (!strcmp(value, "first"))
+                b->foci_policy = HD_FOCI_FIRST;
+            else
+                return bad(c, section, name, "'%s' is not newest or first", value);
+            return 1;
+        }
         return bad(c, section, name, "unknown key");
     }
     if (!strcmp(section, "panel")) {

@@ -59,6 +59,8 @@ struct hd_board {
     } touch;
     /* [mixer] */
     double gain_limit;             /* upper bound of the mix gain g (1 = table full scale) */
+    unsigned max_foci;             /* foci one voice plays at most: touches beyond it follow foci_policy */
+    enum hd_foci_policy { HD_FOCI_NEWEST = 0, HD_FOCI_FIRST } foci_policy;
     /* [exciters] and [amplifier]: the ratings hapticd enforces (protect.h);
      * per exciter in the table's channel order, one value meaning all */
     struct hd_exciters_board {
@@ -85,6 +87,12 @@ struct hd_board {
     int rt_priority;               /* SCHED_FIFO priority of the audio thread, 0 = do not ask */
     bool mlock;
 };
+
+/* Foci one voice plays by default: two fingers. With the inverse filter
+ * every pair of Fig. 7's foci passes the whole-area verdict and 4-8 of 84
+ * triples fail; with time reversal 17 of 36 pairs fail already (docs/firmware.md,
+ * "Several fingers"). */
+#define HD_DEFAULT_MAX_FOCI 2u
 
 /* Defaults for every key (64 frames x 2 periods, 48 kHz, S32_LE, 8 channels, identity map). */
 void hd_board_defaults(struct hd_board *b);

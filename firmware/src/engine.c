@@ -86,6 +86,7 @@ static void publish(struct hd_engine *e)
     atomic_store_explicit(&e->stats.unknown_foci, s->unknown_foci, memory_order_relaxed);
     atomic_store_explicit(&e->stats.dropped_foci, s->dropped_foci, memory_order_relaxed);
     atomic_store_explicit(&e->stats.voices_attenuated, e->player.protect.attenuated, memory_order_relaxed);
+    atomic_store_explicit(&e->stats.policy_foci, s->policy_foci, memory_order_relaxed);
     atomic_store_explicit(&e->stats.voices_skipped, e->player.protect.skipped, memory_order_relaxed);
     atomic_fetch_add_explicit(&e->stats.periods, 1, memory_order_relaxed);
     atomic_store_explicit(&e->stats.active_voices, hd_player_active(&e->player), memory_order_relaxed);

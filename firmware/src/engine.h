@@ -26,6 +26,7 @@
 struct hd_engine_stats {
     _Atomic uint64_t voices_started, voices_stolen, clipped_samples, unknown_foci, dropped_foci;
     _Atomic uint64_t voices_attenuated, voices_skipped; /* by the exciters' ratings (protect.h) */
+    _Atomic uint64_t policy_foci;                       /* left out by [mixer] max_foci */
     _Atomic uint64_t xruns, write_errors, periods;
     _Atomic uint64_t rewinds, rewound_frames;  /* triggers started at once, and the frames rendered again */
     _Atomic int rewind_error;                  /* the ALSA error that disabled rewinding, 0 if none */

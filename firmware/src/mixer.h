@@ -10,7 +10,6 @@
 
 #include <stdint.h>
 
-#define HD_MAX_VOICE_FOCI 32u
 
 struct hd_mix {
     uint32_t count;

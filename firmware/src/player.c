@@ -17,6 +17,8 @@ int hd_player_init(struct hd_player *pl, const struct hd_board *b)
     memcpy(pl->channel_map, b->channel_map, sizeof pl->channel_map);
     pl->gain_limit = b->gain_limit;
     pl->rate_hz = b->rate_hz;
+    pl->max_foci = b->max_foci;
+    pl->foci_policy = b->foci_policy;
     struct hd_exciter_rating rating[HD_MAX_CHANNELS], on_device[HD_MAX_CHANNELS];
     if (hd_board_exciter_ratings(b, rating, b->map_count)) {
         /* Exciter k (the table's channel k) is wired to device channel map[k]. */
@@ -136,6 +138,15 @@ int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint
             continue;
         }
         m.index[m.count++] = (uint32_t)idx;
+    }
+    if (m.count > pl->max_foci) {
+        /* More fingers than the board plays at once: the newest (the end of
+         * the union, in arrival order) or the first. */
+        const uint32_t drop = m.count - pl->max_foci;
+        if (pl->foci_policy == HD_FOCI_NEWEST)
+            memmove(m.index, m.index + drop, pl->max_foci * sizeof m.index[0]);
+        m.count = pl->max_foci;
+        pl->stats.policy_foci += drop;
     }
     if (m.count == 0 || hd_mixer_gain(p, pl->gain_limit, &m) != 0)
         return 0;

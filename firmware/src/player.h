@@ -35,6 +35,7 @@ struct hd_voice {
 
 struct hd_player_stats {
     uint64_t voices_started, voices_stolen, clipped_samples, unknown_foci, dropped_foci;
+    uint64_t policy_foci;               /* foci left out by [mixer] max_foci */
 };
 
 struct hd_player {
@@ -45,6 +46,8 @@ struct hd_player {
     uint32_t map_count;
     uint32_t channel_map[HD_MAX_CHANNELS];
     double gain_limit;
+    uint32_t max_foci;                  /* [mixer] max_foci */
+    enum hd_foci_policy foci_policy;    /* which foci play when a voice asks for more */
     uint32_t rate_hz;
     struct hd_protect protect;          /* the exciters' ratings (protect.h) */
     int protected;                      /* the board has [exciters]: every voice is admitted by `protect` */

@@ -24,6 +24,10 @@ void hd_stats_log(struct hd_engine *e, struct hd_counters *last)
         .dropped_events = atomic_load(&e->ring.dropped),
         .rewind_error = atomic_load(&s->rewind_error),
     };
+    now.policy_foci = atomic_load(&s->policy_foci);
+    if (now.policy_foci != last->policy_foci)
+        hd_log(LOG_INFO, "more fingers than [mixer] max_foci: %llu foci left out in total (the %s played)",
+               (unsigned long long)now.policy_foci, e->player.foci_policy == HD_FOCI_NEWEST ? "newest" : "first");
     now.attenuated = atomic_load(&s->voices_attenuated);
     now.skipped = atomic_load(&s->voices_skipped);
     now.in_burst = last->in_burst;

@@ -14,6 +14,7 @@ struct hd_counters {
     /* The exciters' protection, logged once per burst: when it engages, and
      * when a burst is over (HD_STATS_BURST_QUIET looks without a change). */
     uint64_t attenuated, skipped, burst_attenuated0, burst_skipped0;
+    uint64_t policy_foci;
     unsigned quiet_looks;
     int in_burst;
 };

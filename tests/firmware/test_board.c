@@ -44,6 +44,8 @@ static const char *full =
     "bias = disable\n"
     "[mixer]\n"
     "gain_limit = 0.5\n"
+    "max_foci = 3\n"
+    "foci_policy = first\n"
     "[exciters]\n"
     "rated_power_w = 3, 3, 3, 3, 2, 2, 2, 2.5\n"
     "impedance_ohm = 4\n"
@@ -97,6 +99,8 @@ static void every_key(void **state)
     assert_false(b.lines[2].active_low);
     assert_int_equal(b.lines[2].bias, HD_BIAS_DISABLE);
     assert_true(b.gain_limit == 0.5);
+    assert_int_equal(b.max_foci, 3);
+    assert_int_equal(b.foci_policy, HD_FOCI_FIRST);
     /* Ratings per exciter, the one-value forms spread over all 8. */
     struct hd_exciter_rating r[8];
     assert_int_equal(hd_board_exciter_ratings(&b, r, 8), 1);
@@ -131,6 +135,8 @@ static void defaults(void **state)
     assert_int_equal(b.rewind_margin_frames, 32);
     assert_int_equal(b.line_count, 0);
     assert_true(b.gain_limit == 1.0);
+    assert_int_equal(b.max_foci, 2);
+    assert_int_equal(b.foci_policy, HD_FOCI_NEWEST);
     struct hd_exciter_rating r[8];
     assert_int_equal(hd_board_exciter_ratings(&b, r, 8), 0); /* no [exciters]: not protected */
     assert_true(b.panel.speed_ratio == 1.0);
@@ -206,6 +212,9 @@ static const struct bad_case cases[] = {
     {"[gpio]\nchip = 0\n[line 1024]\nfoci = 1\n", "[line 1024] foci", 6},
     {"[line 3]\nfoci = 1\n", "[gpio] chip", 0},
     {"[mixer]\ngain_limit = 0\n", "[mixer] gain_limit", 4},
+    {"[mixer]\nmax_foci = 0\n", "[mixer] max_foci", 4},
+    {"[mixer]\nmax_foci = 33\n", "[mixer] max_foci", 4},
+    {"[mixer]\nfoci_policy = strongest\n", "[mixer] foci_policy", 4},
     {"[exciters]\nrated_power_w = 0\n", "[exciters] rated_power_w", 4},
     {"[exciters]\nrated_power_w = 3,,3\n", "[exciters] rated_power_w", 4},
     {"[exciters]\nimpedance_ohm = -4\n", "[exciters] impedance_ohm", 4},

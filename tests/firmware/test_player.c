@@ -17,6 +17,7 @@
 #include <stdatomic.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <cmocka.h>
@@ -160,6 +161,49 @@ static void triggers_in_one_period_merge(void **state)
     push(e, 1, unknown);
     hd_engine_period(e, out, P);
     assert_int_equal(e->player.stats.voices_started, 1);
+}
+
+/* Four fingers before one boundary on a board that plays two: the two
+ * newest play (the default), or the two first; the others are counted.
+ * Their mix is the gain law's for the two alone. */
+static void more_fingers_than_max_foci_follow_the_policy(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 4, 256, FW_DISJOINT, 8000, 5);
+    for (int policy = 0; policy < 2; policy++) {
+        struct hd_board b;
+        struct hd_program *p = program(&t, &b);
+        assert_int_equal(b.max_foci, 2); /* the default */
+        b.foci_policy = policy ? HD_FOCI_FIRST : HD_FOCI_NEWEST;
+        struct hd_engine e;
+        assert_int_equal(hd_engine_init(&e, &b, p, 0), 0);
+        int32_t out[P * C];
+        uint32_t one[] = {t.ids[2]}, two[] = {t.ids[0], t.ids[3]}, three[] = {t.ids[1]};
+        push(&e, 1, one);
+        push(&e, 2, two);
+        push(&e, 1, three); /* arrival order: 2, 0, 3, 1 */
+        hd_engine_period(&e, out, P);
+        const struct hd_voice *v = NULL;
+        for (unsigned i = 0; i < HD_MAX_VOICES; i++)
+            if (e.player.voices[i].program)
+                v = &e.player.voices[i];
+        assert_non_null(v);
+        assert_int_equal(v->mix.count, 2);
+        const uint32_t want0 = policy ? 2 : 3, want1 = policy ? 0 : 1; /* table indices */
+        assert_int_equal(v->mix.index[0], want0);
+        assert_int_equal(v->mix.index[1], want1);
+        assert_int_equal(e.player.stats.policy_foci, 2);
+        assert_true(v->mix.gain > 0.70710678118 && v->mix.gain < 0.70710678119); /* two disjoint foci */
+        /* The samples are the two foci's, nothing of the others. */
+        for (uint32_t f = 0; f < P; f++)
+            for (uint32_t c = 0; c < C; c++) {
+                const double want = v->mix.gain * (fw_sample(&t, want0, f, c) + fw_sample(&t, want1, f, c));
+                assert_true(fabs(out[f * C + c] / 65536.0 - want) <= 1.0);
+            }
+        hd_engine_free(&e);
+    }
+    fw_table_free(&t);
 }
 
 static void oldest_voice_is_stolen(void **state)
@@ -466,6 +510,7 @@ int main(void)
         RIG_TEST(trigger_during_playback_adds_at_next_period),
         RIG_TEST(triggers_in_one_period_merge),
         RIG_TEST(oldest_voice_is_stolen),
+        cmocka_unit_test(more_fingers_than_max_foci_follow_the_policy),
         cmocka_unit_test(reload_hands_over_at_a_boundary),
         RIG_TEST(rewind_starts_a_voice_at_once),
         RIG_TEST(rewind_into_an_ended_voice),
