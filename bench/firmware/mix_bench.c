@@ -28,6 +28,7 @@ int main(void)
     hd_board_defaults(&b);
     strcpy(b.path, "bench");
     strcpy(b.alsa_device, "bench");
+    b.max_foci = 9; /* every focus asked plays: the cost of 9 */
     char err[HD_ERR_MAX];
     struct hd_program *p;
     if (hd_program_load(path, &b, &p, err)) {
