@@ -37,7 +37,7 @@ uint32_t haptic_mix_peak_bound(const uint16_t *const *envelopes, uint32_t count,
 }
 
 void haptic_mix_gain_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j), const void *ctx, uint32_t count,
-                        uint32_t peak_bound, double gain_limit, haptic_mix_gain *out)
+                        uint32_t peak_bound, double level, double gain_limit, haptic_mix_gain *out)
 {
     double e_ref = 0.0, e_sum = 0.0;
     for (uint32_t i = 0; i < count; i++)
@@ -52,7 +52,7 @@ void haptic_mix_gain_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j),
      * signals cancel exactly, and then the mix is silent whatever g is. */
     out->energy = e_sum > 0.0 ? sqrt(e_ref / e_sum) : 0.0;
     out->peak = peak_bound > 0 ? 32767.0 / peak_bound : gain_limit;
-    double g = out->energy;
+    double g = level * out->energy;
     if (g > out->peak)
         g = out->peak;
     if (g > gain_limit)

@@ -5,7 +5,7 @@
  *
  * For the selected foci S (K of them, drives s_f[n][c] in table counts) the
  * mix is y[n][c] = g * sum_{f in S} s_f[n][c], with
- *   g = min(g_energy, g_peak, gain_limit),
+ *   g = min(level g_energy, g_peak, gain_limit),
  *   g_energy = sqrt(E_ref / E_sum): E_ref = (1/K) sum_{f in S} G[f][f] is the
  *     mean energy of the foci played alone, E_sum = sum_{f,f' in S} G[f][f']
  *     the energy of the unscaled sum (G: the table's Gram matrix, exact
@@ -15,6 +15,8 @@
  *   g_peak = 32767 / P(S), P(S) = max over blocks b and channels c of
  *     sum_{f in S} max_{n in b} |s_f[n][c]| (blocks of HAPTIC_MIX_PEAK_BLOCK
  *     frames): a bound of the unscaled sum's peak, so a mix never clips;
+ *   level: the user's intensity (linear; 1 = the table's own level: hapticd's
+ *     intensity control, calibgen judges at 1);
  *   gain_limit: the board's [mixer] gain_limit (calibgen judges at 1).
  * The gain is applied in fixed point, Q30 (haptic_mix_gain_q30), and the
  * accumulated sum rounded half up and saturated to the device format
@@ -44,14 +46,14 @@ uint32_t haptic_mix_peak_bound(const uint16_t *const *envelopes, uint32_t count,
                                uint32_t channels);
 
 typedef struct haptic_mix_gain {
-    double energy, peak, gain; /* g_energy, g_peak, and g = the smallest of them and the limit */
+    double energy, peak, gain; /* g_energy, g_peak, and g = the smallest of level g_energy, g_peak, the limit */
     int64_t gain_q30;          /* round(g * 2^30), what is applied */
 } haptic_mix_gain;
 
 /* The law: gram(ctx, i, j) is G[f_i][f_j] for the K selected foci
- * (i, j < count), peak_bound their P(S). count >= 1. */
+ * (i, j < count), peak_bound their P(S). count >= 1, level >= 0. */
 void haptic_mix_gain_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j), const void *ctx, uint32_t count,
-                        uint32_t peak_bound, double gain_limit, haptic_mix_gain *out);
+                        uint32_t peak_bound, double level, double gain_limit, haptic_mix_gain *out);
 
 /* Accumulated Q30 samples (table counts * 2^30) to the device format, rounded
  * half up and saturated. Return how many samples saturated. S32 full scale

@@ -391,6 +391,14 @@ static int handler(void *user, const char *section, const char *name, const char
         b->exciters.enabled = true;
         return exciters_key(c, section, name, value);
     }
+    if (!strcmp(section, "control")) {
+        if (!strcmp(name, "intensity_file")) {
+            if (value[0] != '/')
+                return bad(c, section, name, "'%s' is not an absolute path (e.g. /run/hapticd/intensity_db)", value);
+            return copy_str(c, section, name, b->intensity_file, sizeof b->intensity_file, value);
+        }
+        return bad(c, section, name, "unknown key");
+    }
     if (!strcmp(section, "amplifier")) {
         if (!strcmp(name, "full_scale_v"))
             return number_key(c, section, name, value, 0.0, false, 1000.0, &b->amp_full_scale_v);

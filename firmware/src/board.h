@@ -71,6 +71,8 @@ struct hd_board {
         double tau_s[HD_MAX_CHANNELS];
     } exciters;
     double amp_full_scale_v;       /* [amplifier] full_scale_v: peak volts at digital full scale; 0 if not given */
+    /* [control] */
+    char intensity_file[HD_PATH_MAX]; /* the user's intensity in dB (control.h), "" if none */
     /* [panel]: the panel the table plays on, against the plate it was
      * calibrated for (speed compensation, panel.h) */
     struct hd_panel_board {

@@ -12,6 +12,7 @@
 #include "audio_alsa.h"
 #include "audio_loop.h"
 #include "board.h"
+#include "control.h"
 #include "engine.h"
 #include "log.h"
 #include "program.h"
@@ -29,6 +30,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <getopt.h>
+#include <math.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -69,6 +71,8 @@ struct daemon {
     unsigned long lib_pending;     /* libasound messages not logged yet */
     char lib_pending_first[512];   /* the first of them */
     double lib_next_log_s;         /* no libasound line before this time */
+    struct hd_control control;     /* the user's intensity file ([control] intensity_file) */
+    int control_failing;           /* its last look failed (logged once per failing stretch) */
 };
 
 static void usage(FILE *f)
@@ -296,6 +300,35 @@ static void log_lib_messages(struct daemon *d)
     d->lib_next_log_s = now + 10.0;
 }
 
+/* The user's intensity (control.h): a new level is handed to the player
+ * for the voices to come; a bad or missing file keeps the level, said once
+ * until the file is good again. */
+static void poll_control(struct daemon *d)
+{
+    if (!d->control.path[0])
+        return;
+    char err[HD_ERR_MAX];
+    double db;
+    int rc = hd_control_poll(&d->control, &db, err);
+    if (rc < 0) {
+        if (!d->control_failing)
+            hd_log(LOG_WARNING, "intensity: %s: the level stays %+.1f dB", err,
+                   20 * log10(hd_player_level(&d->engine.player)));
+        d->control_failing = 1;
+        return;
+    }
+    if (rc == 0)
+        return;
+    d->control_failing = 0;
+    const double level = pow(10.0, db / 20.0);
+    hd_player_set_level(&d->engine.player, level);
+    if (level > d->board.gain_limit)
+        hd_log(LOG_INFO, "intensity %+.1f dB: above [mixer] gain_limit (%+.1f dB), voices play at most at it", db,
+               20 * log10(d->board.gain_limit));
+    else
+        hd_log(LOG_INFO, "intensity %+.1f dB", db);
+}
+
 static int run_live(struct daemon *d)
 {
     sigset_t set;
@@ -361,6 +394,7 @@ static int run_live(struct daemon *d)
         else if (sig == SIGTERM || sig == SIGINT)
             break;
         hd_table_policy_poll(&d->tables, monotonic_s());
+        poll_control(d);
         log_lib_messages(d);
         const int failed = atomic_load(&d->player.failed);
         if (failed) {
@@ -522,6 +556,8 @@ int main(int argc, char **argv)
     };
     if (d.board.mlock)
         hd_rt_lock_memory();
+    snprintf(d.control.path, sizeof d.control.path, "%s", d.board.intensity_file);
+    poll_control(&d); /* the level before the first touch */
     status = run_live(&d);
     hd_audio_close(&d.audio, !d.opt.drop);
 out_gpio:

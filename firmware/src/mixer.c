@@ -25,7 +25,7 @@ static double gram_of(const void *ctx, uint32_t i, uint32_t j)
     return hd_program_gram(g->p, g->index[i], g->index[j]);
 }
 
-int hd_mixer_gain(const struct hd_program *p, double gain_limit, struct hd_mix *m)
+int hd_mixer_gain(const struct hd_program *p, double level, double gain_limit, struct hd_mix *m)
 {
     if (m->count == 0 || m->count > HD_MAX_VOICE_FOCI)
         return -EINVAL;
@@ -39,7 +39,7 @@ int hd_mixer_gain(const struct hd_program *p, double gain_limit, struct hd_mix *
     const struct gram_ctx ctx = {p, m->index};
     haptic_mix_gain g;
     haptic_mix_gain_of(gram_of, &ctx, m->count, haptic_mix_peak_bound(envelopes, m->count, p->blocks, p->channel_count),
-                       gain_limit, &g);
+                       level, gain_limit, &g);
     m->gain_energy = g.energy;
     m->gain_peak = g.peak;
     m->gain = g.gain;

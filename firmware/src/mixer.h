@@ -18,9 +18,10 @@ struct hd_mix {
     int64_t gain_q30;                  /* round(gain * 2^30) */
 };
 
-/* Compute the gain for the foci in m->index[0..count). Returns 0, or
- * -EINVAL if count is 0 or an index is out of range. */
-int hd_mixer_gain(const struct hd_program *p, double gain_limit, struct hd_mix *m);
+/* Compute the gain for the foci in m->index[0..count) at the user's level
+ * (linear, 1 = the table's). Returns 0, or -EINVAL if count is 0 or an
+ * index is out of range. */
+int hd_mixer_gain(const struct hd_program *p, double level, double gain_limit, struct hd_mix *m);
 
 /* Energy sum_{f,f' in S} G[f][f'] of the unscaled sum (O(K^2) from the Gram matrix). */
 double hd_mixer_sum_energy(const struct hd_program *p, const uint32_t *index, uint32_t count);

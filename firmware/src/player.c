@@ -16,6 +16,7 @@ int hd_player_init(struct hd_player *pl, const struct hd_board *b)
     pl->map_count = b->map_count;
     memcpy(pl->channel_map, b->channel_map, sizeof pl->channel_map);
     pl->gain_limit = b->gain_limit;
+    hd_player_set_level(pl, 1.0);
     pl->rate_hz = b->rate_hz;
     pl->max_foci = b->max_foci;
     pl->foci_policy = b->foci_policy;
@@ -31,6 +32,21 @@ int hd_player_init(struct hd_player *pl, const struct hd_board *b)
     }
     pl->acc = calloc((size_t)pl->frames_max * pl->channels, sizeof *pl->acc);
     return pl->acc ? 0 : -ENOMEM;
+}
+
+void hd_player_set_level(struct hd_player *pl, double level)
+{
+    uint64_t bits;
+    memcpy(&bits, &level, sizeof bits);
+    atomic_store_explicit(&pl->level_bits, bits, memory_order_relaxed);
+}
+
+double hd_player_level(const struct hd_player *pl)
+{
+    uint64_t bits = atomic_load_explicit(&((struct hd_player *)pl)->level_bits, memory_order_relaxed);
+    double level;
+    memcpy(&level, &bits, sizeof level);
+    return level;
 }
 
 void hd_player_free(struct hd_player *pl)
@@ -148,7 +164,7 @@ int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint
         m.count = pl->max_foci;
         pl->stats.policy_foci += drop;
     }
-    if (m.count == 0 || hd_mixer_gain(p, pl->gain_limit, &m) != 0)
+    if (m.count == 0 || hd_mixer_gain(p, hd_player_level(pl), pl->gain_limit, &m) != 0)
         return 0;
     if (pl->protected && !admit(pl, p, &m))
         return 0;

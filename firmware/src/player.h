@@ -23,6 +23,7 @@
 #include "mixer.h"
 #include "protect.h"
 
+#include <stdatomic.h>
 #include <stdint.h>
 
 #define HD_MAX_VOICES 8u
@@ -46,6 +47,7 @@ struct hd_player {
     uint32_t map_count;
     uint32_t channel_map[HD_MAX_CHANNELS];
     double gain_limit;
+    _Atomic uint64_t level_bits;        /* the user's intensity, linear, as a double's bits (hd_player_set_level) */
     uint32_t max_foci;                  /* [mixer] max_foci */
     enum hd_foci_policy foci_policy;    /* which foci play when a voice asks for more */
     uint32_t rate_hz;
@@ -59,6 +61,11 @@ struct hd_player {
 };
 
 int hd_player_init(struct hd_player *pl, const struct hd_board *b);
+
+/* The user's intensity, linear (1 = the table's level), for the voices
+ * started from now on; any thread, lock-free. */
+void hd_player_set_level(struct hd_player *pl, double level);
+double hd_player_level(const struct hd_player *pl);
 void hd_player_free(struct hd_player *pl);
 
 /* Start one voice playing the union of the given focus ids (resolved in p;

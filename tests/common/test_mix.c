@@ -43,26 +43,33 @@ static void each_gain_binds_in_turn(void **state)
     haptic_mix_gain g;
     /* Two uncorrelated foci of energy 4: g_energy = sqrt(4 / 8). */
     const double uncorrelated[] = {4, 0, 0, 4};
-    haptic_mix_gain_of(gram2, uncorrelated, 2, 100, 1.0, &g);
+    haptic_mix_gain_of(gram2, uncorrelated, 2, 100, 1.0, 1.0, &g);
     assert_true(fabs(g.energy - sqrt(0.5)) < 1e-15);
     assert_true(fabs(g.peak - 327.67) < 1e-12);
     assert_true(g.gain == g.energy);
     assert_int_equal(g.gain_q30, llround(sqrt(0.5) * 1073741824.0));
     /* Anti-correlated: the sum is small, g_energy large; the limit binds. */
     const double anti[] = {4, -3.5, -3.5, 4};
-    haptic_mix_gain_of(gram2, anti, 2, 100, 1.5, &g);
+    haptic_mix_gain_of(gram2, anti, 2, 100, 1.0, 1.5, &g);
     assert_true(fabs(g.energy - 2.0) < 1e-15); /* sqrt(4 / 1) */
     assert_true(g.gain == 1.5);
     /* A large peak bound: the peak gain binds. */
-    haptic_mix_gain_of(gram2, uncorrelated, 2, 65534, 1.0, &g);
+    haptic_mix_gain_of(gram2, uncorrelated, 2, 65534, 1.0, 1.0, &g);
     assert_true(g.gain == 0.5 * 32767.0 / 32767.0);
     /* One focus plays as stored; signals that cancel exactly are silent. */
     const double one[] = {9, 0, 0, 0};
-    haptic_mix_gain_of(gram2, one, 1, 30000, 1.0, &g);
+    haptic_mix_gain_of(gram2, one, 1, 30000, 1.0, 1.0, &g);
     assert_true(g.gain == 1.0);
     const double cancel[] = {4, -4, -4, 4};
-    haptic_mix_gain_of(gram2, cancel, 2, 0, 1.0, &g);
+    haptic_mix_gain_of(gram2, cancel, 2, 0, 1.0, 1.0, &g);
     assert_true(g.energy == 0.0 && g.gain == 0.0 && g.gain_q30 == 0);
+    /* The user's level scales the energy gain; the peak and the limit still bind. */
+    haptic_mix_gain_of(gram2, uncorrelated, 2, 100, 0.5, 1.0, &g);
+    assert_true(fabs(g.gain - 0.5 * sqrt(0.5)) < 1e-15);
+    haptic_mix_gain_of(gram2, uncorrelated, 2, 65534, 2.0, 4.0, &g);
+    assert_true(g.gain == 0.5); /* 2 x 0.707 = 1.41 > the peak's 0.5 */
+    haptic_mix_gain_of(gram2, uncorrelated, 2, 100, 2.0, 1.2, &g);
+    assert_true(g.gain == 1.2); /* the limit */
 }
 
 static void device_formats_round_half_up_and_saturate(void **state)

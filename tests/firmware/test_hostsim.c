@@ -394,6 +394,71 @@ static void live_signals_race_the_audio_thread(void **state)
     fw_table_free(&t);
 }
 
+/* The user's intensity file, live: the level written before the start plays
+ * the first voice at 10^(-6/20) of the table (to one LSB of the Q30 gain);
+ * a new level is taken for the next voice; a bad value is refused once and
+ * the level kept; a table reload keeps it too. */
+static void intensity_file_sets_the_level(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 2, N, FW_RANDOM, 5000, 29);
+    struct hs_files f;
+    hs_files(&f, "level");
+    fw_table_write(&t, f.table);
+    char level[300], extra[400];
+    hs_path(level, sizeof level, "intensity_db");
+    snprintf(extra, sizeof extra, "[control]\nintensity_file = %s\n", level);
+    hs_write_board_extra(f.board, "S32_LE", "0,1,2,3,4,5,6,7", extra);
+    FILE *lf = fopen(level, "w");
+    fputs("-6\n", lf);
+    fclose(lf);
+    int fd;
+    pid_t pid = hs_start_live(&f, 0, &fd);
+    assert_true(hs_file_contains(f.err, "intensity -6.0 dB"));
+    const double g[] = {pow(10.0, -6.0 / 20.0), 1.0, 1.0, 1.0};
+    sf_count_t from = 0, onset[4];
+    for (int i = 0; i < 4; i++) {
+        if (i == 1) { /* 0 dB, through a rename as an editor would */
+            char tmp[320];
+            snprintf(tmp, sizeof tmp, "%s.new", level);
+            lf = fopen(tmp, "w");
+            fputs("0\n", lf);
+            fclose(lf);
+            assert_int_equal(rename(tmp, level), 0);
+            hs_wait_for(f.err, "intensity +0.0 dB");
+        } else if (i == 2) { /* a bad value: refused, the level stays */
+            lf = fopen(level, "w");
+            fputs("loud\n", lf);
+            fclose(lf);
+            hs_wait_for(f.err, "is not a number of dB");
+        } else if (i == 3) { /* a reload keeps it */
+            kill(pid, SIGHUP);
+            hs_wait_for(f.err, "reloaded");
+        }
+        hs_send_focus(fd, t.ids[0]);
+        from = hs_wait_voice(f.wav, from, N, NULL, 0);
+        onset[i] = from;
+        from += N;
+    }
+    kill(pid, SIGTERM);
+    hs_assert_clean_exit(pid, f.err);
+    close(fd);
+    assert_int_equal(hs_file_count(f.err, "is not a number of dB"), 1);
+    sf_count_t frames;
+    int32_t *w = hs_read_wav(f.wav, &frames, SF_FORMAT_PCM_32);
+    for (int i = 0; i < 4; i++)
+        for (uint32_t n = 0; n < N; n++)
+            for (uint32_t c = 0; c < C; c++) {
+                const double want = g[i] * fw_sample(&t, 0, n, c) * 65536.0;
+                const double got = w[(onset[i] + n) * C + c];
+                if (fabs(got - want) > 65536.0)
+                    fail_msg("voice %d frame %u channel %u: %.0f, want %.0f", i, n, c, got, want);
+            }
+    free(w);
+    fw_table_free(&t);
+}
+
 static void bad_inputs_fail_cleanly(void **state)
 {
     (void)state;
@@ -452,6 +517,7 @@ int main(void)
         cmocka_unit_test(live_rewind_starts_at_once),
         cmocka_unit_test(live_without_rewind_starts_at_period),
         cmocka_unit_test(live_signals_race_the_audio_thread),
+        cmocka_unit_test(intensity_file_sets_the_level),
         cmocka_unit_test(bad_inputs_fail_cleanly),
     };
     return cmocka_run_group_tests(tests, hs_setup, hs_teardown);

@@ -76,7 +76,7 @@ static int32_t *render_all(const struct fw_table *t, struct hd_program *p, const
     assert_int_equal(hd_player_init(&pl, &b), 0);
     struct hd_mix m = {.count = K};
     memcpy(m.index, idx, K * sizeof *idx);
-    assert_int_equal(hd_mixer_gain(p, b.gain_limit, &m), 0);
+    assert_int_equal(hd_mixer_gain(p, 1.0, b.gain_limit, &m), 0);
     hd_player_start_mix(&pl, p, &m);
     uint32_t periods = (t->samples + 63) / 64;
     int32_t *all = calloc((size_t)periods * 64 * chs, sizeof *all);
@@ -215,7 +215,7 @@ static void uncorrelated_foci_fall_as_inverse_sqrt_k(void **state)
         struct hd_mix m = {.count = K};
         for (uint32_t k = 0; k < K; k++)
             m.index[k] = k;
-        assert_int_equal(hd_mixer_gain(p, 1.0, &m), 0);
+        assert_int_equal(hd_mixer_gain(p, 1.0, 1.0, &m), 0);
         assert_true(fabs(m.gain - 1.0 / sqrt((double)K)) < 1e-15);
         assert_true(m.gain == m.gain_energy);
     }
@@ -235,7 +235,7 @@ static void correlated_foci_and_peak_limit(void **state)
     fw_table_make(&same, C, 4, 256, FW_CONSTANT, 30000, 1);
     assert_int_equal(hd_program_from_table(&same.table, &b, &p, err), 0);
     struct hd_mix m = {.count = 4, .index = {0, 1, 2, 3}};
-    assert_int_equal(hd_mixer_gain(p, 1.0, &m), 0);
+    assert_int_equal(hd_mixer_gain(p, 1.0, 1.0, &m), 0);
     assert_true(fabs(m.gain - 0.25) < 1e-15);
     hd_program_free(p);
     fw_table_free(&same);
@@ -259,12 +259,12 @@ static void correlated_foci_and_peak_limit(void **state)
     free(out);
     /* The board's gain_limit caps g too. */
     m = (struct hd_mix){.count = 1, .index = {0}};
-    assert_int_equal(hd_mixer_gain(p, 0.25, &m), 0);
+    assert_int_equal(hd_mixer_gain(p, 1.0, 0.25, &m), 0);
     assert_true(m.gain == 0.25);
     m.count = 0;
-    assert_int_equal(hd_mixer_gain(p, 1.0, &m), -EINVAL);
+    assert_int_equal(hd_mixer_gain(p, 1.0, 1.0, &m), -EINVAL);
     m = (struct hd_mix){.count = 1, .index = {2}};
-    assert_int_equal(hd_mixer_gain(p, 1.0, &m), -EINVAL);
+    assert_int_equal(hd_mixer_gain(p, 1.0, 1.0, &m), -EINVAL);
     hd_program_free(p);
     fw_table_free(&loud);
 }
@@ -458,12 +458,12 @@ static void a_voice_takes_exactly_hd_max_voice_foci(void **state)
     for (uint32_t k = 0; k < HD_MAX_VOICE_FOCI; k++)
         idx[k] = z.m.index[k] = HD_MAX_VOICE_FOCI - k; /* foci 32..1 */
     z.m.count = HD_MAX_VOICE_FOCI;
-    assert_int_equal(hd_mixer_gain(p, 1.0, &z.m), 0);
+    assert_int_equal(hd_mixer_gain(p, 1.0, 1.0, &z.m), 0);
     struct ref r = ref_gain(&t, idx, HD_MAX_VOICE_FOCI, 1.0);
     assert_true(fabs(z.m.gain_energy - r.gain_energy) <= 1e-12 * r.gain_energy);
     assert_true(fabs(z.m.gain - r.gain) <= 1e-12 * r.gain);
     z.m.count = HD_MAX_VOICE_FOCI + 1;
-    assert_int_equal(hd_mixer_gain(p, 1.0, &z.m), -EINVAL);
+    assert_int_equal(hd_mixer_gain(p, 1.0, 1.0, &z.m), -EINVAL);
 
     struct hd_player pl;
     b.max_foci = HD_MAX_VOICE_FOCI; /* the board lets a voice have them all */

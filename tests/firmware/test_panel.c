@@ -170,7 +170,7 @@ static void a_stretched_program_plays_the_stretched_drives_with_their_energies(v
     assert_true(hd_program_gram(p, 0, 0) != haptic_table_gram(&t.table, 0, 0));
     /* The mixer's energy normalisation uses them: two foci at E_ref. */
     struct hd_mix m = {.count = 2, .index = {0, 2}};
-    assert_int_equal(hd_mixer_gain(p, 16.0, &m), 0);
+    assert_int_equal(hd_mixer_gain(p, 1.0, 16.0, &m), 0);
     const long double e_ref = (gram_of(p, 0, 0) + gram_of(p, 2, 2)) / 2,
                       e_sum = gram_of(p, 0, 0) + gram_of(p, 2, 2) + 2 * gram_of(p, 0, 2);
     assert_true(fabs(m.gain_energy - (double)sqrtl(e_ref / e_sum)) < 1e-12);
