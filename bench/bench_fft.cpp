@@ -2,9 +2,9 @@
 // transforms the calibration pipeline runs: one forward (real -> half
 // spectrum) and one inverse per iteration, the pair a convolution by FFT
 // costs per channel. Sizes: 640, the playback of Fig. 7 through H
-// (fft_friendly_size of drive + H samples, pipeline/playback.cpp); 1024, the
+// (fft_friendly_size of drive + H samples, pipeline/transfer/playback.cpp); 1024, the
 // placement's contrast model on Fig. 7 (power of two >= kept + window
-// samples, pipeline/placement.cpp); 4096 and 3 * 5^4 = 1875 for longer windows
+// samples, pipeline/placement/placement.cpp); 4096 and 3 * 5^4 = 1875 for longer windows
 // and rates (an FFTW-friendly size that is not a power of two).
 #include <benchmark/benchmark.h>
 #include <fftw3.h>

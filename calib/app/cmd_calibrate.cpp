@@ -7,13 +7,17 @@
 #include "model/cost_model.h"
 #include "model/error_model.h"
 #include "model/resources.h"
+#include "physics/dispersion.h"
 #include "pipeline/calibrate.h"
-#include "pipeline/lead_time.h"
+#include "pipeline/data/lead_time.h"
 #include "pipeline/plan.h"
+#include "pipeline/table_writer.h"
+#include "pipeline/verification/verification.h"
 #include "report/calibration_report.h"
 #include "report/tolerance_report.h"
 #include "scene/calibration_input.h"
 #include "io/format.h"
+#include "io/read_file.h"
 
 #include <haptic_table.h>
 #include <sndfile.h>
@@ -22,7 +26,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <vector>
 #include <optional>
@@ -34,16 +37,6 @@ namespace calib::app {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-std::string read_bytes(const std::string &path)
-{
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
-        throw std::runtime_error(path + ": cannot open scene file");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
 
 using io::fmt;
 
@@ -65,15 +58,17 @@ struct LimitArgs {
 
 Prepared prepare(const std::string &path, const LimitArgs &l, bool verification_only)
 {
-    const std::string bytes = read_bytes(path);
-    Prepared p{scene::parse_scene(bytes, path), std::nullopt, {}};
+    const std::optional<std::string> bytes = io::read_file(path);
+    if (!bytes)
+        throw std::runtime_error(path + ": cannot open scene file");
+    Prepared p{scene::parse_scene(*bytes, path), std::nullopt, {}};
     if (!p.scene.calibration_sections())
         throw std::runtime_error(path + ": not a calibration scene: it needs [active_area], [exciters], [foci], "
                                         "[pulse] and [calibration] sections");
     p.choice = model::apply_accuracy_target(p.scene);  // calibration.accuracy picks the grid (docs/ACCURACY.md)
     if (!verification_only)  // verify records the foci only: the full plan below prices it
         model::refuse_before_build(p.scene, l.limits(), true);
-    p.input = scene::calibration_input(p.scene, scene::build_plate(p.scene), bytes);
+    p.input = scene::calibration_input(p.scene, scene::build_plate(p.scene), *bytes);
     try {
         pipeline::check_feasible(p.input);
     } catch (const std::invalid_argument &e) {
@@ -128,7 +123,7 @@ int dry_run(const std::string &path, const LimitArgs &l)
     const model::Prediction pr = model::predict(in, plan, &cost);
     const double f_max = model::scene_f_max_hz(s);
     const engine::Grid &g = in.plate->grid();
-    const double lambda = model::kirchhoff_wavelength_m(in.plate->kappa(), f_max);
+    const double lambda = physics::kirchhoff_wavelength_m(in.plate->kappa(), f_max);
     std::ostringstream o;
     o << "scene " << s.name << " (dry run: nothing simulated)\n";
     if (p.choice)
@@ -179,7 +174,7 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
                 continue;
             }
             std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %12.1f\n", m.id, m.at.x_m * 1e3, m.at.y_m * 1e3,
-                         m.peak_m * 1e6, m.peak_time_s * 1e3);
+                         m.peak_m * 1e6, m.lead_time_s * 1e3);
         }
         if (quiet > 0)
             std::fprintf(stderr, "(%zu of %zu foci stayed below the %.1f um threshold)\n", quiet, v.foci.size(),
@@ -187,7 +182,7 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
         return;
     }
     // Up to a dozen foci, one line each; a dense grid as worst / median / best.
-    // Either way the verdict (calibrate.h FocusMetrics::passes) comes last,
+    // Either way the verdict (data/verdict.h FocusMetrics::passes) comes last,
     // and every focus that fails says why and where its ghost is.
     const double thr = in.calibration.threshold_m;
     const pipeline::VerdictSummary verdict = pipeline::summarize_verdict(v.foci);
@@ -425,7 +420,7 @@ int run_verify(const VerifyArgs &a)
         haptic_focus_info fi;
         haptic_table_focus(&t, f, &fi);
         const pipeline::FocusPoint &sf = in.foci.points[f];
-        if (fi.id != sf.id || std::hypot(fi.x_m - sf.at.x_m, fi.y_m - sf.at.y_m) > 1e-6)
+        if (fi.id != sf.id || pipeline::dist({fi.x_m, fi.y_m}, sf.at) > 1e-6)
             throw std::runtime_error(a.table + ": focus " + std::to_string(f) + " (id " + std::to_string(fi.id) +
                                      ") does not match the scene's focus id " + std::to_string(sf.id));
         const int16_t *s = haptic_table_signal(&t, f);

@@ -1,6 +1,7 @@
 // `calibgen dispersion`: Lamb/SH mode table (CSV on stdout) and an optional
 // dispersion diagram. See docs/dispersion.md.
 #include "app/commands.h"
+#include "io/format.h"
 #include "physics/dispersion.h"
 #include "physics/material.h"
 #include "report/plot.h"
@@ -198,13 +199,6 @@ ModeFilter parse_modes(const std::string &text)
     return f;
 }
 
-std::string fmt(double v)
-{
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.9g", v);
-    return buf;
-}
-
 struct Row {
     std::size_t fi;  // index into the frequency list
     std::string material;
@@ -326,11 +320,12 @@ void run(const DispersionArgs &a)
                       "material\n";
     for (const Row &r : rows) {
         const ModePoint &p = r.p;
-        csv += fmt(p.f_hz) + ',' + p.name() + ',' + fmt(p.phase_velocity_m_s) + ',' + fmt(p.group_velocity_m_s) + ',' +
-               fmt(p.wavelength_m) + ',' + fmt(p.wavenumber_rad_m) + ',';
+        csv += io::fmt("%.9g,", p.f_hz) + p.name() +
+               io::fmt(",%.9g,%.9g,%.9g,%.9g,", p.phase_velocity_m_s, p.group_velocity_m_s, p.wavelength_m,
+                       p.wavenumber_rad_m);
         if (!std::isnan(r.kirchhoff))
-            csv += fmt(r.kirchhoff) + ',' + fmt(r.kirchhoff / p.phase_velocity_m_s - 1) + ',' + fmt(r.mindlin) + ',' +
-                   fmt(r.mindlin / p.phase_velocity_m_s - 1) + ',';
+            csv += io::fmt("%.9g,%.9g,%.9g,%.9g,", r.kirchhoff, r.kirchhoff / p.phase_velocity_m_s - 1, r.mindlin,
+                           r.mindlin / p.phase_velocity_m_s - 1);
         else
             csv += ",,,,";
         csv += r.material + '\n';

@@ -3,6 +3,7 @@
 // frequencies and, with --png, one image per mode shape.
 #include "app/commands.h"
 #include "engine/modes.h"
+#include "physics/dispersion.h"
 #include "io/atomic_file.h"
 #include "io/format.h"
 #include "model/resources.h"
@@ -18,7 +19,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <numbers>
 #include <optional>
 #include <ostream>
 #include <stdexcept>
@@ -106,13 +106,13 @@ int run_modes(const ModesArgs &a)
                "y_symmetry\n";
         for (int c = 0; c < a.count; ++c) {
             const std::size_t i = std::size_t(c);
-            const double omega = 2 * std::numbers::pi * modes.frequency_hz[i];
-            // A0 wavelength of the mode's frequency over the grid spacing: the
-            // scheme's accuracy (DOMAIN.md: ~18 points for 1 % in omega).
-            const double ppw = omega > 0 ? 2 * std::numbers::pi * std::sqrt(op.kappa() / omega) / g.h : 0.0;
+            const double f = modes.frequency_hz[i];
+            // Kirchhoff A0 wavelength of the mode's frequency over the grid
+            // spacing: the scheme's accuracy (docs/physics.md: ~18 points for 1 % in omega).
+            const double ppw = f > 0 ? physics::kirchhoff_wavelength_m(op.kappa(), f) / g.h : 0.0;
             const double rate = modes.decay_rate_1_s[i];
             out << c + 1 << io::fmt(",%.9g", modes.frequency_hz[i]) << io::fmt(",%.9g", modes.eigenvalue_rad2_s2[i])
-                << (omega > 0 ? io::fmt(",%.4g", ppw) : std::string(",")) << io::fmt(",%.6g", rate)
+                << (f > 0 ? io::fmt(",%.4g", ppw) : std::string(",")) << io::fmt(",%.6g", rate)
                 << (rate > 0 ? io::fmt(",%.6g", engine::t60_of_decay_rate_s(rate)) : std::string(",")) << ','
                 << engine::parity_name(modes.parity_x[i]) << ',' << engine::parity_name(modes.parity_y[i]) << "\n";
         }

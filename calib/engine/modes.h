@@ -44,10 +44,6 @@ struct PlateModes {
     long operations = 0;  // solves with the factor
 };
 
-// Reverberation time of an amplitude decay rate: exp(-rate t) falls by 60 dB
-// at t = 3 ln 10 / rate.
-inline double t60_of_decay_rate_s(double rate_1_s) { return 3 * 2.302585092994046 / rate_1_s; }
-
 // The `count` lowest modes. Throws std::invalid_argument unless
 // 1 <= count < op.unknown_count(), std::runtime_error if the factorisation
 // or the iteration fails (one line each).

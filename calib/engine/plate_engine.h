@@ -95,21 +95,14 @@ public:
     void set_state(const std::vector<double> &current, const std::vector<double> &previous);
 
     using value_type = T;
-    // For extensions and checks: the newest level, node (i, j) is at
+    // For extensions and checks: node (i, j) of a level is at
     // field[j * stride() + i]; force_gain(node) turns a force (N) at a node
     // into its displacement increment this step.
-    const T *newest_field() const { return u_; }
     std::ptrdiff_t stride() const { return stride_; }
     double force_gain(std::size_t node) const;
-    // During after_update(): d^{n+1} = u^{n+1} - u^n and d^n, so a point
-    // effect can form u^n, u^{n-1}, centred velocities and accelerations.
-    const T *newest_increment() const { return inc_; }
-    const T *increment_before() const { return inc_before_; }
     // Adds a displacement (m) to u^{n+1} at a field offset, and to d^{n+1}
     // (and the momentum it carries to the rigid-body bookkeeping).
     void add_displacement(std::ptrdiff_t offset, T delta_m);
-    // Offset of a node (row-major node index) in the field layout.
-    std::ptrdiff_t field_offset(std::size_t node) const { return offset_of(node); }
 
 private:
     // Edge-band rows in factored form (plate_operator.h): first the strains

@@ -33,8 +33,8 @@ Loss loss_from_t60(double kappa, double f1, double t1, double f2, double t2)
     }
     const double xi1 = 2 * std::numbers::pi * f1 / kappa;  // beta^2 = omega / kappa
     const double xi2 = 2 * std::numbers::pi * f2 / kappa;
-    const double s1 = 3 * std::log(10.0) / t1;  // amplitude decay rates
-    const double s2 = 3 * std::log(10.0) / t2;
+    const double s1 = decay_rate_of_t60_1_s(t1);  // amplitude decay rates
+    const double s2 = decay_rate_of_t60_1_s(t2);
     Loss loss;
     loss.sigma1 = (s2 - s1) / (xi2 - xi1);
     loss.sigma0 = s1 - loss.sigma1 * xi1;

@@ -32,6 +32,7 @@
 
 #include <array>
 #include <cstddef>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -55,13 +56,24 @@ struct Loss {
     double sigma0 = 0;
     double sigma1 = 0;
     bool active() const { return sigma0 != 0 || sigma1 != 0; }
+    // The amplitude decay rate (1/s) of a wave of angular frequency omega on a
+    // plate of constant kappa: sigma(omega) = sigma0 + sigma1 beta^2, beta^2 = omega / kappa.
+    double decay_rate_1_s(double omega_rad_s, double kappa_m2_s) const
+    {
+        return sigma0 + sigma1 * omega_rad_s / kappa_m2_s;
+    }
 };
 
-// Loss from two T60 values (seconds for a 60 dB fall of the *amplitude*) at
-// two frequencies. A mode of wavenumber beta decays as exp(-(sigma0 +
-// sigma1 beta^2) t) and beta^2 = omega / kappa, so sigma(omega_i) = 3 ln(10) /
-// T60_i. (Bilbao writes 6 ln(10) with his convention; we state ours and test
-// it by measuring the decay.) Throws std::invalid_argument if the fit needs a
+// T60 (s: a 60 dB fall of the *amplitude*) and the amplitude decay rate sigma
+// (1/s) of exp(-sigma t): T60 = 3 ln(10) / sigma, either way. (Bilbao writes
+// 6 ln(10) with his convention; we state ours and test it by measuring the decay.)
+inline double t60_of_decay_rate_s(double rate_1_s) { return 3 * std::numbers::ln10 / rate_1_s; }
+inline double decay_rate_of_t60_1_s(double t60_s) { return 3 * std::numbers::ln10 / t60_s; }
+
+// Loss from two T60 values at two frequencies: a mode of wavenumber beta
+// decays as exp(-(sigma0 + sigma1 beta^2) t), so each T60_i gives
+// sigma(omega_i) (Loss::decay_rate_1_s, decay_rate_of_t60_1_s) and the two
+// fix sigma0 and sigma1. Throws std::invalid_argument if the fit needs a
 // negative sigma (T60 must not grow with frequency faster than the model
 // allows) or an input is not positive.
 Loss loss_from_t60(double kappa_m2_s, double f1_hz, double t60_1_s, double f2_hz, double t60_2_s);

@@ -2,9 +2,10 @@
 #include "pipeline/placement_verdict.h"
 
 #include "model/resources.h"
-#include "pipeline/lead_time.h"
-#include "pipeline/site_recording.h"
-#include "pipeline/time_reversal.h"
+#include "pipeline/data/lead_time.h"
+#include "pipeline/placement/site_recording.h"
+#include "pipeline/design/time_reversal.h"
+#include "pipeline/signal/resample.h"
 
 #include <omp.h>
 
@@ -21,7 +22,7 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // lattice_interval > 0: also a copy of the whole field every that many steps,
-// handed over in chunks, as a reciprocity simulation records (site_recording.h).
+// handed over in chunks, as a reciprocity simulation records (pipeline/placement/site_recording.h).
 double time_one(const std::shared_ptr<const engine::PlateOperator> &op, engine::SimulationOptions so,
                 std::size_t sources, std::size_t receivers, double node_steps, std::size_t lattice_interval = 0)
 {
@@ -124,7 +125,7 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
     p.fields_mb = running * simulation_bytes(plan.nodes, prec, 0, 0) / mb;
     p.traces_mb = running * reciprocity_recording_bytes(plan) / mb;
     p.recordings_mb = 2 * emitters * sites * in.calibration.window_s * plan.search_rate_hz * 4 / mb;
-    // H and the spectra of its points (playback.h), kept through the verification.
+    // H and the spectra of its points (pipeline/transfer/playback.h), kept through the verification.
     p.recordings_mb = std::max(p.recordings_mb, 3 * plan.transfer_bytes / mb);
     // The verification keeps, per focus, the displacement at every focus
     // (double) over the drive and its tail: K^2 traces, the term that grows

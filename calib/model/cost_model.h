@@ -16,7 +16,7 @@ namespace calib::model {
 // Seconds per step of one simulation on one core, timed on the scene's own
 // operator with the recording and sources each pipeline stage uses: the
 // reciprocity simulations copy the field every plan.site_decimation steps
-// (pipeline/site_recording.h), the verification drives the exciters and
+// (pipeline/placement/site_recording.h), the verification drives the exciters and
 // records the foci. The fastest of three runs of
 // about `node_steps` node-steps each (a shared machine only ever slows it down).
 struct CostModel {
@@ -40,7 +40,7 @@ double measure_seconds_per_step(const std::shared_ptr<const engine::PlateOperato
 // traces (a double per receiver per step).
 double simulation_bytes(std::size_t nodes, engine::Precision p, std::size_t receivers, std::size_t steps);
 // Bytes a reciprocity simulation records beside its field: a double per site
-// per recorded sample, and the field copies of two chunks (site_recording.h).
+// per recorded sample, and the field copies of two chunks (pipeline/placement/site_recording.h).
 double reciprocity_recording_bytes(const pipeline::CalibrationPlan &plan);
 
 struct Prediction {
@@ -50,7 +50,7 @@ struct Prediction {
     double fields_mb = 0;          // the running simulations' fields (three levels each)
     double traces_mb = 0;          // the running simulations' traces
     double recordings_mb = 0;      // the stored recordings (pulse and impulse responses)
-    double verdict_probes = 0;     // ghost probes the search by the verdict may add (placement_verdict.h)
+    double verdict_probes = 0;     // ghost probes the search by the verdict may add (pipeline/placement_verdict.h)
 };
 // Memory needs no timing: `cost` may be null, then seconds stay 0.
 Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,

@@ -2,7 +2,7 @@
 
 #include "engine/plate_operator.h"
 #include "physics/dispersion.h"
-#include "pipeline/pulse.h"
+#include "pipeline/signal/pulse.h"
 #include "io/format.h"
 
 #include <cmath>
@@ -20,8 +20,6 @@ constexpr double pi = std::numbers::pi;
 using io::fmt;
 
 }  // namespace
-
-double kirchhoff_wavelength_m(double kappa, double f_hz) { return 2 * pi * std::sqrt(kappa / (2 * pi * f_hz)); }
 
 double scene_f_max_hz(const scene::Scene &s)
 {
@@ -51,7 +49,7 @@ Choice choose_points_per_wavelength(const scene::Scene &s, double target)
 {
     const double f = scene_f_max_hz(s);
     const double kappa = s.plate.material.kappa(s.plate.thickness_m);
-    const double lambda = kirchhoff_wavelength_m(kappa, f);
+    const double lambda = physics::kirchhoff_wavelength_m(kappa, f);
     auto choice_at = [&](double N) {
         Choice c;
         c.points_per_wavelength = N;

@@ -18,9 +18,6 @@ namespace calib::model {
 double predicted_phase_error(const physics::Material &m, double thickness_m, double f_hz, double h_m,
                              double time_step_s);
 
-// Kirchhoff A0 wavelength at f: the length the scene divides by points_per_wavelength.
-double kirchhoff_wavelength_m(double kappa, double f_hz);
-
 // The highest frequency the scene's grid is built for: simulation.f_max_hz,
 // else the pulse's highest significant frequency. Throws naming the key.
 double scene_f_max_hz(const scene::Scene &s);

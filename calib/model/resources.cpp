@@ -3,9 +3,12 @@
 #include "engine/modes.h"
 #include "engine/spectrum.h"
 #include "model/error_model.h"
-#include "pipeline/focus_subset.h"
+#include "physics/dispersion.h"
+#include "pipeline/placement/focus_subset.h"
+#include "pipeline/placement/placement.h"
 #include "pipeline/plan.h"
-#include "pipeline/site_recording.h"
+#include "pipeline/placement/site_recording.h"
+#include "pipeline/signal/pulse.h"
 #include "io/format.h"
 
 #include <omp.h>
@@ -161,7 +164,7 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
         if (!s.calibration_sections())
             return;
         const double window_steps = std::ceil(s.calibration->window_s / k);
-        const double lambda = kirchhoff_wavelength_m(kappa, s.pulse->centre_hz);
+        const double lambda = physics::kirchhoff_wavelength_m(kappa, s.pulse->centre_hz);
         pipeline::Band band;
         band.plate_x_m = pl.size_x_m;
         band.plate_y_m = pl.size_y_m;
@@ -176,14 +179,14 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
                                    : double(pipeline::candidate_sites(band, spacing).size());
         const double threads = std::max(1, omp_get_max_threads());
         const double rate = pipeline::search_rate(*s.pulse);
-        // The placement simulates the foci of its subset only (pipeline/focus_subset.h).
+        // The placement simulates the foci of its subset only (pipeline/placement/focus_subset.h).
         const double foci = std::min(
             double(s.foci->points.size()),
             double(pipeline::placement_focus_cap(
                 s.exciters->placement_foci, sites,
                 pipeline::contrast_model_lags(s.calibration->window_s, s.calibration->truncate_fraction, rate))));
         // Each running reciprocity simulation: a double per site and recorded
-        // sample, and two chunks of field copies (pipeline/site_recording.h).
+        // sample, and two chunks of field copies (pipeline/placement/site_recording.h).
         const double decimation = double(pipeline::site_recording_options(k, rate).decimation);
         const double traces = std::min(threads, foci) *
                               (sites * std::ceil(window_steps / decimation) * 8 +

@@ -404,15 +404,31 @@ double a0_wavelength(const Material &m, double thickness_m, double f_hz)
     return a0_mode(m, thickness_m, f_hz).wavelength_m;
 }
 
+double kirchhoff_phase_velocity_m_s(double kappa_m2_s, double f_hz)
+{
+    return std::sqrt(2 * pi * f_hz * kappa_m2_s);
+}
+
+double kirchhoff_group_velocity_m_s(double kappa_m2_s, double f_hz)
+{
+    return 2 * kirchhoff_phase_velocity_m_s(kappa_m2_s, f_hz);
+}
+
+double kirchhoff_wavelength_m(double kappa_m2_s, double f_hz)
+{
+    return 2 * pi * std::sqrt(kappa_m2_s / (2 * pi * f_hz));
+}
+
 double kirchhoff_phase_velocity(const Material &m, double thickness_m, double f_hz)
 {
     check_inputs(m, thickness_m, f_hz);
-    return std::sqrt(2 * pi * f_hz * m.kappa(thickness_m));
+    return kirchhoff_phase_velocity_m_s(m.kappa(thickness_m), f_hz);
 }
 
 double kirchhoff_group_velocity(const Material &m, double thickness_m, double f_hz)
 {
-    return 2 * kirchhoff_phase_velocity(m, thickness_m, f_hz);
+    check_inputs(m, thickness_m, f_hz);
+    return kirchhoff_group_velocity_m_s(m.kappa(thickness_m), f_hz);
 }
 
 double mindlin_shear_factor(const Material &m, MindlinShear choice)

@@ -48,7 +48,14 @@ double a0_phase_velocity(const Material &m, double thickness_m, double f_hz);
 double a0_group_velocity(const Material &m, double thickness_m, double f_hz);
 double a0_wavelength(const Material &m, double thickness_m, double f_hz);
 
-// Kirchhoff-Love plate: c = sqrt(omega kappa), c_g = 2 c, lambda = c / f.
+// Kirchhoff-Love plate: c = sqrt(omega kappa), c_g = 2 c, lambda = c / f =
+// 2 pi sqrt(kappa / omega). The plate constant kappa (m^2/s,
+// Material::kappa) alone decides them: the _m_s and _m forms take it as a
+// plate operator or a material gives it, and are the one place these
+// formulas are written; the material forms check their inputs first.
+double kirchhoff_phase_velocity_m_s(double kappa_m2_s, double f_hz);
+double kirchhoff_group_velocity_m_s(double kappa_m2_s, double f_hz);
+double kirchhoff_wavelength_m(double kappa_m2_s, double f_hz);
 double kirchhoff_phase_velocity(const Material &m, double thickness_m, double f_hz);
 double kirchhoff_group_velocity(const Material &m, double thickness_m, double f_hz);
 

@@ -1,9 +1,9 @@
 #include "pipeline/placement_verdict.h"
 
-#include "pipeline/plan.h"
-#include "pipeline/verification.h"
-
 #include "engine/simulation.h"
+#include "pipeline/calibrate_stages.h"
+#include "pipeline/plan.h"
+#include "pipeline/transfer/transfer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -229,9 +229,7 @@ TransferMatrix search_by_verdict(const CalibrationInput &in, PlacementSearch &se
     res.times.verification_s = best.result.times.verification_s;
     pl.verdict_s = seconds_since(t0);
     res.times.verdict_s = pl.verdict_s;
-    const TransferMatrix &H = best.H;
-    res.transfer = {H.channels, H.lattice.size(), H.point_count() - H.lattice.size(), H.samples,
-                    H.rate_hz,  H.lattice.spacing_m, H.bytes()};
+    res.transfer = transfer_summary(best.H);
     return std::move(best.H);
 }
 

@@ -1,6 +1,6 @@
-// The placement search judged by the verdict (calibrate.h FocusMetrics::passes).
+// The placement search judged by the verdict (data/verdict.h FocusMetrics::passes).
 //
-// The contrast model (placement.h) predicts, by reciprocity, the time-reversal
+// The contrast model (placement/placement.h) predicts, by reciprocity, the time-reversal
 // field at the foci of the search's subset and at a few probe points: a proxy.
 // What a person feels is the whole active area at all times, and there the
 // proxy is blind: the worst ghost of a Fig. 7 placement sits where no focus or
@@ -23,8 +23,11 @@
 // the foci passing, then the worst whole-area contrast (verdict_better). The transfer simulations are shared: a site already simulated for
 // one placement serves every later one.
 #pragma once
-#include "pipeline/calibrate_stages.h"
-#include "pipeline/transfer.h"
+#include "pipeline/data/input.h"
+#include "pipeline/data/result.h"
+#include "pipeline/data/transfer_matrix.h"
+#include "pipeline/data/verdict.h"
+#include "pipeline/placement_search.h"
 
 namespace calib::pipeline {
 
@@ -48,7 +51,7 @@ bool judged_by_verdict(const CalibrationInput &in, const PlacementSearch &search
 bool verdict_better(const Verification &a, const Verification &b, double amplitude_m);
 // The foci that pass with their peak within 1 % of amplitude_m.
 std::size_t passing_at_target(const Verification &v, double amplitude_m);
-// The figures a placement is ranked by (calibrate.h PlacementReport::Judged,
+// The figures a placement is ranked by (data/result.h PlacementReport::Judged,
 // no sites, no proxy).
 PlacementReport::Judged judged_figures(const Verification &v, double amplitude_m);
 

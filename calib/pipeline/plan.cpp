@@ -1,10 +1,12 @@
 #include "pipeline/plan.h"
 
-#include "pipeline/calibrate.h"
-#include "pipeline/focus_subset.h"
-#include "pipeline/lead_time.h"
-#include "pipeline/site_recording.h"
-#include "pipeline/transfer.h"
+#include "physics/dispersion.h"
+#include "pipeline/data/lead_time.h"
+#include "pipeline/placement/focus_subset.h"
+#include "pipeline/placement/placement.h"
+#include "pipeline/placement/site_recording.h"
+#include "pipeline/signal/pulse.h"
+#include "pipeline/transfer/transfer.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +17,6 @@
 namespace calib::pipeline {
 
 namespace {
-
 
 // Probe points where a lone focus must stay above the field: a 3 x 3 grid
 // over the active area, without the points within half a wavelength of a
@@ -45,19 +46,6 @@ std::size_t steps_for(double duration_s, double k)
 
 }  // namespace
 
-Band band_of(const CalibrationInput &in)
-{
-    Band b;
-    b.plate_x_m = in.plate->params().size_x_m;
-    b.plate_y_m = in.plate->params().size_y_m;
-    b.frame_margin_m = in.active.frame_margin_m;
-    b.active_area = in.active.area;
-    b.clearance_m = in.active.clearance_m;
-    return b;
-}
-
-double search_rate(const PulseSpec &p) { return std::max(2000.0, std::ceil(4.0 * pulse_max_frequency_hz(p))); }
-
 double lattice_points(const Band &band, double spacing_m)
 {
     return (std::floor(band.plate_x_m / spacing_m) + 1) * (std::floor(band.plate_y_m / spacing_m) + 1);
@@ -67,7 +55,7 @@ CalibrationPlan plan(const CalibrationInput &in)
 {
     CalibrationPlan p;
     p.band = band_of(in);
-    p.lambda_centre_m = a0_wavelength_m(*in.plate, in.pulse.centre_hz);
+    p.lambda_centre_m = physics::kirchhoff_wavelength_m(in.plate->kappa(), in.pulse.centre_hz);
     const bool fixed = in.exciters.placement == PlacementMode::fixed;
     if (fixed) {
         p.sites = in.exciters.positions;
@@ -86,7 +74,7 @@ CalibrationPlan plan(const CalibrationInput &in)
         p.sites = candidate_sites(p.band, p.site_spacing_m);
     }
     p.search_rate_hz = search_rate(in.pulse);
-    {  // The placement search weighs a bounded subset of the foci (focus_subset.h).
+    {  // The placement search weighs a bounded subset of the foci (placement/focus_subset.h).
         std::vector<Point> at;
         for (const FocusPoint &f : in.foci.points)
             at.push_back(f.at);
@@ -113,7 +101,7 @@ CalibrationPlan plan(const CalibrationInput &in)
     const SiteRecordingOptions sro = site_recording_options(p.time_step_s, p.search_rate_hz);
     p.site_decimation = sro.decimation;
     p.site_steps = p.window_steps + site_recording_delay_steps(p.time_step_s, sro);
-    // The drive is the kept part of the window (time_reversal.cpp), then the tail.
+    // The drive is the kept part of the window (design/time_reversal.cpp), then the tail.
     p.drive_steps = steps_for(kept_window_s(in) + in.calibration.verify_tail_s,
                               p.time_step_s);
     p.transfer = transfer_holds(in);

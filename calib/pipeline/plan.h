@@ -4,15 +4,13 @@
 // this plan; the cost model (model/cost_model.h) prices it, so the two cannot
 // drift apart.
 #pragma once
-#include "pipeline/placement.h"
-#include "pipeline/spec.h"
+#include "pipeline/data/geometry.h"
+#include "pipeline/data/input.h"
 
 #include <cstddef>
 #include <vector>
 
 namespace calib::pipeline {
-
-struct CalibrationInput;
 
 // One forward (verification) pass over every focus: the exciters play the
 // focus's signals and the foci are recorded.
@@ -30,7 +28,7 @@ struct CalibrationPlan {
     double site_spacing_m = 0;     // candidate lattice (0 for placement = "fixed")
     std::vector<Point> sites;      // candidate exciter sites; placement = "fixed": the given positions
     // One reciprocity simulation per emitter: the foci of the placement
-    // subset (focus_subset.h), then the probe points.
+    // subset (placement/focus_subset.h), then the probe points.
     std::vector<Point> emitters;
     std::size_t foci = 0;                     // emitters that are foci: focus_subset.size()
     std::vector<std::size_t> focus_subset;    // indices into the scene's foci, ascending
@@ -42,7 +40,7 @@ struct CalibrationPlan {
     std::size_t nodes = 0;         // grid nodes of the plate
     double time_step_s = 0;        // Kirchhoff step of the scene's settings (the thick plate's is smaller)
     std::size_t window_steps = 0;  // per reciprocity simulation: the impulse response's window
-    // How a reciprocity simulation records (site_recording.h): a copy of the
+    // How a reciprocity simulation records (placement/site_recording.h): a copy of the
     // field every site_decimation-th step; site_steps = the window and the
     // band-limited impulse's delay.
     std::size_t site_decimation = 1;
@@ -51,7 +49,7 @@ struct CalibrationPlan {
     // The forward passes ([effects.finger] only: the finger changes the plate
     // per touch position); empty when the transfer matrix serves.
     std::vector<VerificationPass> verification;
-    // The transfer matrix (transfer.h): one simulation per exciter of
+    // The transfer matrix (transfer/transfer.h): one simulation per exciter of
     // transfer_steps, and H's bytes (channels x observed points x samples,
     // float); the playback keeps their spectra too (about twice as much).
     bool transfer = true;
@@ -71,13 +69,5 @@ double lattice_points(const Band &band, double spacing_m);
 // More lattice points than this are not enumerated: a placement search over
 // them would not finish, and their recordings would not fit in memory.
 constexpr double max_candidate_sites = 1e7;
-
-// The exciter band of the scene's plate and active area.
-Band band_of(const CalibrationInput &in);
-
-// Rate of the stored recordings for a pulse: 4x its highest significant
-// frequency keeps the band with margin for soxr's transition band;
-// everything after the simulation (search, time reversal) works at this rate.
-double search_rate(const PulseSpec &p);
 
 }  // namespace calib::pipeline

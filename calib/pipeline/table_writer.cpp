@@ -1,6 +1,4 @@
-// The drive table of a calibration, written with common/ (the one definition
-// of the format, docs/table-format.md).
-#include "pipeline/calibrate.h"
+#include "pipeline/table_writer.h"
 
 #include <haptic_table.h>
 
@@ -30,7 +28,7 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
         ids.push_back(in.foci.points[f].id);
         fxy.insert(fxy.end(), {in.foci.points[f].at.x_m, in.foci.points[f].at.y_m});
         scale.push_back(m.peak_m);
-        lead.push_back(m.peak_time_s);  // the same playback as scale_m: the stored samples at gain 1
+        lead.push_back(m.lead_time_s);  // the same playback as scale_m: the stored samples at gain 1
         std::copy(r.signals[f].samples.begin(), r.signals[f].samples.end(), samples.begin() + f * frames * C);
     }
     char created[32];
@@ -70,7 +68,7 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
     haptic_panel panel{};
     panel.temperature_c = in.plate_temperature_c;
     const bool stated = in.tolerance && in.tolerance->youngs_per_kelvin;
-    panel.youngs_per_k = stated ? *in.tolerance->youngs_per_kelvin : in.plate->params().material.youngs_per_kelvin;
+    panel.youngs_per_k = panel_youngs_per_kelvin(in.tolerance ? &*in.tolerance : nullptr, in.plate->params().material);
     spec.panel = stated || panel.youngs_per_k != 0 ? &panel : nullptr;
     haptic_table_error err{};
     if (haptic_table_write(path.c_str(), &spec, &err) != 0)

@@ -2,7 +2,7 @@
 
 #include "io/atomic_file.h"
 #include "physics/dispersion.h"
-#include "pipeline/verification.h"
+#include "pipeline/verification/verification.h"
 #include "report/canvas.h"
 #include "report/drive_report.h"
 #include "report/field_image.h"
@@ -59,7 +59,7 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                       {"x_m", m.at.x_m},
                       {"y_m", m.at.y_m},
                       {"peak_m", m.peak_m},
-                      {"peak_time_s", m.peak_time_s},
+                      {"peak_time_s", m.lead_time_s},  // the lead time by its first name, kept for readers
                       {"lead_time_s", m.lead_time_s},
                       {"lambda_half_m", m.lambda_half_m},
                       {"crosses_threshold", m.crosses_threshold}};
@@ -105,7 +105,7 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                      {"foci", std::move(foci)},
                      {"all_cross_threshold", all_cross}};
     if (c.mode == "table") {
-        // The verdict (calibrate.h FocusMetrics::passes): what the exit status says.
+        // The verdict (data/verdict.h FocusMetrics::passes): what the exit status says.
         const pipeline::VerdictSummary vs = pipeline::summarize_verdict(c.verification->foci);
         if (vs.total > 0)
             root.insert("verdict", toml::table{{"scope", c.verification->foci[vs.worst].verdict_scope()},
@@ -427,7 +427,7 @@ void write_html_report(const std::string &dir, const ReportContext &c)
               << (m.passes() ? std::string("<td class='ok'>pass</td>")
                              : "<td class='bad'>fails: " + canvas::xml_escape(m.failure(c.input->calibration.threshold_m)) + "</td>");
         else
-            h << "<td>" << num(m.peak_time_s * 1e3) << "</td>" << yes(m.crosses_threshold);
+            h << "<td>" << num(m.lead_time_s * 1e3) << "</td>" << yes(m.crosses_threshold);
         h << "</tr>";
     }
     h << "</table>" << drive_design_html(c);

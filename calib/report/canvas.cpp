@@ -1,5 +1,7 @@
 #include "report/canvas.h"
 
+#include "io/format.h"
+
 #include <cairo-svg.h>
 
 #include <cmath>
@@ -50,9 +52,7 @@ std::vector<SvgText> *svg_texts(cairo_t *cr)
 
 std::string num(double v)
 {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.2f", v);
-    std::string s = buf;
+    std::string s = io::fmt("%.2f", v);
     while (s.back() == '0')
         s.pop_back();
     if (s.back() == '.')

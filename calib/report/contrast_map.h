@@ -4,7 +4,7 @@
 // Voronoi cell) whatever the foci's layout, grid or scattered. The lattice
 // covers the area only: the plate around it is drawn as "no data".
 #pragma once
-#include "pipeline/placement.h"
+#include "pipeline/placement/placement.h"
 #include "report/field_image.h"
 
 #include <vector>

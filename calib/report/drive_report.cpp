@@ -1,7 +1,7 @@
 #include "report/drive_report.h"
 
 #include "io/format.h"
-#include "pipeline/lead_time.h"
+#include "pipeline/data/lead_time.h"
 
 #include <sstream>
 

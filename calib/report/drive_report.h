@@ -1,9 +1,9 @@
 // The drive design in the calibration report: which method made the signals
 // (time reversal or the inverse filter, its regularisation and lead time) and
-// what each focus's drive costs (pipeline/drive_figures.h), in metrics.json
+// what each focus's drive costs (pipeline/verification/drive_figures.h), in metrics.json
 // and index.html.
 #pragma once
-#include "pipeline/drive_figures.h"
+#include "pipeline/verification/drive_figures.h"
 #include "report/calibration_report.h"
 
 #include <toml++/toml.h>

@@ -1,10 +1,10 @@
 #include "report/effects_report.h"
 
 #include "engine/effects/exciter.h"
+#include "io/format.h"
 #include "physics/dispersion.h"
 
 #include <cmath>
-#include <cstdio>
 #include <numbers>
 
 namespace calib::report {
@@ -12,16 +12,7 @@ namespace calib::report {
 using engine::PlateParams;
 using namespace engine::effects;
 
-namespace {
-
-std::string fmt(const char *f, double a, double b = 0, double c = 0)
-{
-    char buf[256];
-    std::snprintf(buf, sizeof buf, f, a, b, c);
-    return buf;
-}
-
-}  // namespace
+using io::fmt;
 
 double kirchhoff_phase_error(const physics::Material &m, double thickness_m, double f_hz)
 {
@@ -37,12 +28,12 @@ std::vector<EffectStatus> assess_effects(const EffectsSpec &spec, const PlatePar
     const physics::Material &mat = plate.material;
     const double kappa = mat.kappa(d);
 
-    // Loss: sigma(omega) = sigma0 + sigma1 omega / kappa; T60 = 3 ln 10 / sigma.
+    // Loss: the T60 of the plate's decay rate sigma(omega).
     {
         EffectStatus s{"loss", plate.loss.active(), false, 0, ""};
         if (s.active) {
             auto t60 = [&](double f) {
-                return 3 * std::log(10.0) / (plate.loss.sigma0 + plate.loss.sigma1 * 2 * std::numbers::pi * f / kappa);
+                return engine::t60_of_decay_rate_s(plate.loss.decay_rate_1_s(2 * std::numbers::pi * f, kappa));
             };
             s.why = fmt("on ([plate.loss]): T60 %.3g s at %.4g Hz", t60(f_hi_hz), f_hi_hz) +
                     fmt(", %.3g s at %.4g Hz", t60(f_lo_hz), f_lo_hz);

@@ -3,6 +3,7 @@
 // and axes drawn by cairo.
 #include "report/field_image.h"
 
+#include "io/format.h"
 #include "report/canvas.h"
 #include "report/colormap.h"
 #include "report/contour.h"
@@ -114,13 +115,6 @@ Ticks mm_ticks(double lo_m, double hi_m)
     return make_ticks(a, *a.min, *a.max, "position");
 }
 
-std::string fmt(double v)
-{
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.3g", v);
-    return buf;
-}
-
 struct LegendItem {
     enum { threshold, no_data, exciter, focus } kind;
     std::string text;
@@ -131,7 +125,7 @@ std::vector<LegendItem> legend_items(const FieldMap &f, const FieldStyle &s, con
 {
     std::vector<LegendItem> items;
     if (s.threshold)
-        items.push_back({LegendItem::threshold, "threshold " + fmt(*s.threshold * s.scale) + " " + s.unit, 0});
+        items.push_back({LegendItem::threshold, "threshold " + io::fmt("%.3g", *s.threshold * s.scale) + " " + s.unit, 0});
     if (has_no_data(f, l))
         items.push_back({LegendItem::no_data, "no data", 0});
     auto any = [&](Marker::Kind k) {

@@ -1,5 +1,6 @@
 #include "report/report_fields.h"
 
+#include "io/format.h"
 #include "report/contrast_map.h"
 #include "report/field_image.h"
 
@@ -13,13 +14,7 @@ namespace calib::report {
 using pipeline::FocusMetrics;
 using pipeline::Point;
 
-std::string num(double v, int prec)
-{
-    std::ostringstream os;
-    os.precision(prec);
-    os << v;
-    return os.str();
-}
+std::string num(double v, int prec) { return io::fmt("%.*g", prec, v); }
 
 bool few_foci(const ReportContext &c) { return c.verification->foci.size() <= max_foci_drawn; }
 
@@ -189,7 +184,7 @@ std::string field_sections_html(const ReportContext &c, const std::vector<size_t
     const std::vector<std::string> snapshots = snapshot_imgs(c, shown);
     for (size_t k = 0; k < shown.size(); k++)
         h << "<figure class='cell'>" << snapshots[k] << "<figcaption>|w| when focus " << v.foci[shown[k]].id
-          << " peaks (" << num(v.foci[shown[k]].peak_time_s * 1e3)
+          << " peaks (" << num(v.foci[shown[k]].lead_time_s * 1e3)
           << " ms); one colour scale for all foci, white line: the threshold</figcaption></figure>";
     h << "</div>" << worst_focus_html(c);
     return h.str();

@@ -3,7 +3,7 @@
 // summary, the HTML report); with a robust design, the plain design's beside
 // it and what the robust one cost (docs/robustness.md).
 #pragma once
-#include "pipeline/tolerance_spec.h"
+#include "pipeline/data/tolerance_spec.h"
 
 #include <toml++/toml.h>
 

@@ -2,7 +2,8 @@
 // [foci], [pulse], [calibration] (docs/scene-format.md). Each fills the
 // pipeline's plain spec and names the key in every error.
 #pragma once
-#include "pipeline/spec.h"
+#include "pipeline/data/spec.h"
+#include "pipeline/signal/pulse.h"
 #include "scene/toml_fields.h"
 
 namespace calib::scene {

@@ -6,6 +6,8 @@
 #include "scene/toml_fields.h"
 
 #include "engine/mindlin/mindlin_operator.h"
+#include "io/read_file.h"
+#include "physics/dispersion.h"
 
 #include <haptic_table.h>
 
@@ -13,8 +15,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
-#include <numbers>
 #include <sstream>
 
 namespace calib::scene {
@@ -194,7 +194,7 @@ void parse_calibration_section(const toml::table &t, Scene &scene)
                    {"window_s", "truncate_fraction", "output_rate_hz", "sample_format", "threshold_m", "dither",
                     "accuracy", "verify_tail_s", "method", "lead_time_s", "regularization", "robust"});
     scene.calibration = parse_calibration(f);
-    if (f.has("robust"))  // with either method (pipeline/robust.h)
+    if (f.has("robust"))  // with either method (pipeline/robustness/robust_design.h)
         scene.robust = parse_robust(f);
 }
 
@@ -284,12 +284,10 @@ Scene parse_scene(std::string_view text, const std::string &file_name)
 
 Scene load_scene(const std::string &path)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
+    const std::optional<std::string> bytes = io::read_file(path);
+    if (!bytes)
         throw SceneError(path + ": cannot open scene file");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return parse_scene(ss.str(), path);
+    return parse_scene(*bytes, path);
 }
 
 engine::Grid plate_grid(const Scene &scene)
@@ -300,9 +298,8 @@ engine::Grid plate_grid(const Scene &scene)
     if (s.grid_spacing_m) {
         h_max = *s.grid_spacing_m;
     } else {
-        // Kirchhoff A0 wavelength at f_max: 2 pi sqrt(kappa / omega).
-        const double kappa = p.material.kappa(p.thickness_m);
-        const double wavelength = 2 * std::numbers::pi * std::sqrt(kappa / (2 * std::numbers::pi * s.f_max_hz));
+        // The Kirchhoff A0 wavelength at f_max.
+        const double wavelength = physics::kirchhoff_wavelength_m(p.material.kappa(p.thickness_m), s.f_max_hz);
         h_max = wavelength / s.points_per_wavelength;
     }
     // Counted in floating point before any grid exists: an absurd size or

@@ -10,8 +10,9 @@
 #include "engine/plate_operator.h"
 #include "engine/simulation.h"
 #include "physics/material.h"
-#include "pipeline/spec.h"
-#include "pipeline/tolerance_spec.h"
+#include "pipeline/data/spec.h"
+#include "pipeline/signal/pulse.h"
+#include "pipeline/data/tolerance_spec.h"
 
 #include <memory>
 #include <optional>

@@ -74,7 +74,7 @@ pipeline::ToleranceSpec parse_tolerance(const Fields &f, const PlateSpec &plate)
     if (auto v = f.number("temperature_k")) {
         if (!(*v >= 0 && std::isfinite(*v)))
             f.fail("temperature_k", "must be >= 0 (kelvin either side), got " + format_number(*v));
-        const double coef = t.youngs_per_kelvin.value_or(plate.material.youngs_per_kelvin);
+        const double coef = pipeline::panel_youngs_per_kelvin(&t, plate.material);
         if (!(1 - std::abs(coef) * *v > 0))
             f.fail("temperature_k", format_number(*v) + " K at dE/E/dT = " + format_number(coef) +
                                         " per K makes Young's modulus <= 0");

@@ -2,7 +2,7 @@
 // docs/robustness.md): what a panel may differ by, and the plates a robust
 // design is computed over. Every error names the key.
 #pragma once
-#include "pipeline/tolerance_spec.h"
+#include "pipeline/data/tolerance_spec.h"
 #include "scene/toml_fields.h"
 
 namespace calib::scene {

@@ -1,6 +1,7 @@
 #include "study/accuracy.h"
 
 #include "engine/plate_engine.h"
+#include "io/format.h"
 #include "model/cost_model.h"
 #include "model/error_model.h"
 #include "model/resources.h"
@@ -25,12 +26,7 @@ constexpr double pi = std::numbers::pi;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-std::string fmt(const char *f, double v)
-{
-    char b[64];
-    std::snprintf(b, sizeof b, f, v);
-    return b;
-}
+using io::fmt;
 
 struct Ring {
     double beta = 0;   // wavenumber of the mode (rad/m)
@@ -128,7 +124,7 @@ PhaseMeasurement measure_phase_velocity(const physics::Material &m, double thick
     const auto t0 = Clock::now();
     PhaseMeasurement pm;
     pm.f_hz = f_hz;
-    pm.h_m = model::kirchhoff_wavelength_m(m.kappa(thickness_m), f_hz) / s.points_per_wavelength;
+    pm.h_m = physics::kirchhoff_wavelength_m(m.kappa(thickness_m), f_hz) / s.points_per_wavelength;
     pm.exact_m_s = physics::a0_phase_velocity(m, thickness_m, f_hz);
     const double lambda_exact = pm.exact_m_s / f_hz;
     // Mode (2, 1): x wavelength = nx h; bracket the exact wavelength.
@@ -158,7 +154,8 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
     r.scene_file = scene_path;
     r.scene_name = base.name;
     r.f_max_hz = model::scene_f_max_hz(base);
-    r.lambda_f_max_m = model::kirchhoff_wavelength_m(base.plate.material.kappa(base.plate.thickness_m), r.f_max_hz);
+    r.lambda_f_max_m =
+        physics::kirchhoff_wavelength_m(base.plate.material.kappa(base.plate.thickness_m), r.f_max_hz);
 
     DispersionSetting s0;
     s0.points_per_wavelength = base.simulation.points_per_wavelength;

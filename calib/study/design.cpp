@@ -2,6 +2,7 @@
 
 #include "io/atomic_file.h"
 #include "io/format.h"
+#include "io/read_file.h"
 #include "scene/scene.h"
 #include "scene/toml_fields.h"
 #include "study/design_case.h"
@@ -15,10 +16,8 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <optional>
-#include <sstream>
 #include <thread>
 
 namespace calib::study {
@@ -27,21 +26,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::optional<std::string> read_text(const fs::path &p)
-{
-    std::ifstream in(p, std::ios::binary);
-    if (!in)
-        return std::nullopt;
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
 // A finished case's result, if its file is whole and is this case's.
 std::optional<CaseResult> stored_result(const fs::path &dir, const Case &c)
 {
     const fs::path p = dir / case_file_name(c);
-    const auto text = read_text(p);
+    const auto text = io::read_file(p.string());
     if (!text)
         return std::nullopt;
     try {

@@ -1,5 +1,6 @@
 #include "study/design_case.h"
 
+#include "io/format.h"
 #include "model/resources.h"
 #include "pipeline/calibrate.h"
 #include "scene/calibration_input.h"
@@ -71,12 +72,8 @@ std::string one_line(std::string s)
     return s;
 }
 
-std::string num(double v)
-{
-    char b[40];
-    std::snprintf(b, sizeof b, "%.17g", v);
-    return b;
-}
+// Every digit: a number reads back exactly.
+constexpr const char *exact = "%.17g";
 
 }  // namespace
 
@@ -109,8 +106,8 @@ CaseResult run_case(const Sweep &sweep, const Case &c, int rank)
             const double contrast = v.foci.size() > 1 ? m.other_foci_contrast_db : m.field_contrast_db;
             r.worst_contrast_db = std::min(r.worst_contrast_db, contrast);
             r.max_spot_m = std::max(r.max_spot_m, m.spot_diameter_m);
-            r.max_lead_time_s = std::max(r.max_lead_time_s, m.peak_time_s);
-            r.foci_meeting_criterion += m.passes();  // the verdict (calibrate.h)
+            r.max_lead_time_s = std::max(r.max_lead_time_s, m.lead_time_s);
+            r.foci_meeting_criterion += m.passes();  // the verdict (data/verdict.h)
             const double peak = res.full_scale_peak_m.at(f);
             r.min_peak_m = std::min(r.min_peak_m, peak);
             const double e = drive_energy(res.signals.at(f), in.exciters.force_full_scale_n);
@@ -138,27 +135,27 @@ std::string encode_case(const CaseResult &r)
       << "index=" << r.index << "\n"
       << "id=" << r.id << "\n"
       << "material=" << r.material << "\n"
-      << "thickness_m=" << num(r.thickness_m) << "\n"
+      << "thickness_m=" << io::fmt(exact, r.thickness_m) << "\n"
       << "edges=" << r.edges << "\n"
       << "exciters=" << r.exciters << "\n"
       << "criterion=" << r.criterion << "\n"
       << "seed=" << r.seed << "\n"
-      << "pulse_centre_hz=" << num(r.pulse_centre_hz) << "\n"
-      << "pulse_cycles=" << num(r.pulse_cycles) << "\n"
+      << "pulse_centre_hz=" << io::fmt(exact, r.pulse_centre_hz) << "\n"
+      << "pulse_cycles=" << io::fmt(exact, r.pulse_cycles) << "\n"
       << "ran=" << (r.ran ? 1 : 0) << "\n"
       << "note=" << one_line(r.note) << "\n"
       << "foci=" << r.foci << "\n"
       << "foci_meeting_criterion=" << r.foci_meeting_criterion << "\n"
-      << "worst_contrast_db=" << num(r.worst_contrast_db) << "\n"
-      << "min_peak_m=" << num(r.min_peak_m) << "\n"
-      << "min_peak_per_sqrt_energy=" << num(r.min_peak_per_sqrt_energy) << "\n"
-      << "max_spot_m=" << num(r.max_spot_m) << "\n"
-      << "max_lead_time_s=" << num(r.max_lead_time_s) << "\n"
-      << "wall_s=" << num(r.wall_s) << "\n"
-      << "simulation_s=" << num(r.simulation_s) << "\n"
-      << "search_s=" << num(r.search_s) << "\n"
-      << "verification_s=" << num(r.verification_s) << "\n"
-      << "peak_rss_mb=" << num(r.peak_rss_mb) << "\n"
+      << "worst_contrast_db=" << io::fmt(exact, r.worst_contrast_db) << "\n"
+      << "min_peak_m=" << io::fmt(exact, r.min_peak_m) << "\n"
+      << "min_peak_per_sqrt_energy=" << io::fmt(exact, r.min_peak_per_sqrt_energy) << "\n"
+      << "max_spot_m=" << io::fmt(exact, r.max_spot_m) << "\n"
+      << "max_lead_time_s=" << io::fmt(exact, r.max_lead_time_s) << "\n"
+      << "wall_s=" << io::fmt(exact, r.wall_s) << "\n"
+      << "simulation_s=" << io::fmt(exact, r.simulation_s) << "\n"
+      << "search_s=" << io::fmt(exact, r.search_s) << "\n"
+      << "verification_s=" << io::fmt(exact, r.verification_s) << "\n"
+      << "peak_rss_mb=" << io::fmt(exact, r.peak_rss_mb) << "\n"
       << "rank=" << r.rank << "\n"
       << "end=1\n";
     return o.str();

@@ -1,24 +1,25 @@
 #include "study/latency.h"
 
 #include "io/format.h"
+#include "io/read_file.h"
 #include "model/error_model.h"
+#include "physics/dispersion.h"
 #include "pipeline/calibrate.h"
 #include "pipeline/calibrate_stages.h"
 #include "pipeline/placement_verdict.h"
-#include "pipeline/drive_figures.h"
-#include "pipeline/lead_time.h"
-#include "pipeline/multitouch.h"
-#include "pipeline/radiation.h"
+#include "pipeline/verification/drive_figures.h"
+#include "pipeline/data/lead_time.h"
+#include "pipeline/verification/multitouch.h"
+#include "pipeline/verification/radiation.h"
 #include "pipeline/plan.h"
-#include "pipeline/verification.h"
+#include "pipeline/verification/verification.h"
+#include "pipeline/transfer/transfer.h"
 #include "scene/calibration_input.h"
 
 #include <algorithm>
 #include <numbers>
 #include <chrono>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 
 namespace calib::study {
@@ -27,16 +28,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-std::string read_scene(const std::string &path)
-{
-    std::ifstream f(path, std::ios::binary);
-    if (!f)
-        throw std::runtime_error(path + ": cannot open scene file");
-    std::ostringstream ss;
-    ss << f.rdbuf();
-    return ss.str();
-}
 
 // One case on the shared H: the drives, their level, the verification.
 void run_case(const pipeline::CalibrationInput &base, const pipeline::TransferMatrix &H,
@@ -65,7 +56,7 @@ void run_case(const pipeline::CalibrationInput &base, const pipeline::TransferMa
         row.min_peak_m = std::min(row.min_peak_m, m.peak_m);
         row.margin_m = std::min(row.margin_m, in.calibration.threshold_m - m.max_whole_area_m);
         row.all_cross &= m.crosses_threshold;
-        row.all_alone &= m.passes();  // the verdict (calibrate.h)
+        row.all_alone &= m.passes();  // the verdict (data/verdict.h)
         const pipeline::DriveFigures d = pipeline::drive_figures(in, r.signals[f].samples, unsigned(exciters.size()),
                                                                  in.calibration.output_rate_hz, m.peak_m);
         row.min_peak_per_root_energy = std::min(row.min_peak_per_root_energy, d.peak_per_root_energy);
@@ -134,12 +125,14 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
     };
     if (o.lead_times_s.empty())
         throw std::invalid_argument("latency study: no lead times to sweep");
-    const std::string bytes = read_scene(path);
-    scene::Scene s = scene::parse_scene(bytes, path);
+    const std::optional<std::string> bytes = io::read_file(path);
+    if (!bytes)
+        throw std::runtime_error(path + ": cannot open scene file");
+    scene::Scene s = scene::parse_scene(*bytes, path);
     if (!s.calibration_sections())
         throw std::runtime_error(path + ": not a calibration scene");
     model::apply_accuracy_target(s);
-    pipeline::CalibrationInput in = scene::calibration_input(s, scene::build_plate(s), bytes);
+    pipeline::CalibrationInput in = scene::calibration_input(s, scene::build_plate(s), *bytes);
     if (!pipeline::transfer_holds(in))
         throw std::runtime_error(path + ": the latency study needs the transfer matrix ([effects.finger] is on)");
     LatencyResult res;
@@ -160,9 +153,10 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
     res.exciters = pipeline::placed_exciters(in);
     res.placement_s = since(t0);
     res.crossing_s = pipeline::crossing_time_s(in, res.exciters);
+    const double kappa = in.plate->kappa();
     res.ceiling = pipeline::ideal_focus_ceiling(
-        in.pulse, [&](double f) { return 2 * std::numbers::pi / pipeline::a0_wavelength_m(*in.plate, f); },
-        pipeline::a0_wavelength_m(*in.plate, in.pulse.centre_hz) / 2);
+        in.pulse, [&](double f) { return 2 * std::numbers::pi / physics::kirchhoff_wavelength_m(kappa, f); },
+        physics::kirchhoff_wavelength_m(kappa, in.pulse.centre_hz) / 2);
 
     // H long enough for the longest lead time and for the scene's own window.
     t0 = Clock::now();

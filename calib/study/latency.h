@@ -1,16 +1,16 @@
 // `calibgen study latency SCENE --report DIR`: what the lead time (playback
-// start to the focal peak, pipeline/lead_time.h) costs in focusing, for time
+// start to the focal peak, pipeline/data/lead_time.h) costs in focusing, for time
 // reversal and the inverse filter side by side. One placement and one
 // transfer matrix H serve every case (same scene, same exciters); each case
 // designs the drives of every focus at one lead time with one method, sets
 // their level for the target amplitude and verifies them over the whole
-// active area at all times (pipeline/verification.h). docs/REPRODUCTION.md
+// active area at all times (pipeline/verification/verification.h). docs/REPRODUCTION.md
 // holds the Fig. 7 results.
 #pragma once
-#include "pipeline/focus_ceiling.h"
-#include "pipeline/multitouch.h"
-#include "pipeline/placement.h"
-#include "pipeline/spec.h"
+#include "pipeline/verification/focus_ceiling.h"
+#include "pipeline/verification/multitouch.h"
+#include "pipeline/placement/placement.h"
+#include "pipeline/data/spec.h"
 
 #include <cstdint>
 #include <functional>
@@ -25,7 +25,7 @@ struct LatencyOptions {
     bool multitouch = true;               // verify every pair of foci too
     bool triples = false;                 // ... and every triple of foci >= lambda/2 apart
     // ... and, in the inverse filter's cases, each of those sets designed
-    // jointly under the superposition's budget (pipeline/multitouch.h)
+    // jointly under the superposition's budget (pipeline/verification/multitouch.h)
     bool joint = false;
     bool quiet = false;
 };
@@ -45,7 +45,7 @@ struct LatencyRow {
     double min_peak_per_root_energy = 0; // m / (N s^0.5), worst focus
     double max_energy_n2s = 0;           // largest drive energy at the stored level
     double max_out_of_band = 0;          // largest fraction of drive energy above the pulse band
-    // Two fingers (pipeline/multitouch.h): pairs of foci >= lambda/2 apart
+    // Two fingers (pipeline/verification/multitouch.h): pairs of foci >= lambda/2 apart
     // superposed with the firmware's energy normalisation.
     std::size_t pairs = 0, pairs_failing = 0;
     uint32_t worst_pair[2] = {0, 0};     // focus ids
@@ -53,7 +53,7 @@ struct LatencyRow {
     std::size_t triples = 0, triples_failing = 0;  // three fingers (LatencyOptions::triples)
     uint32_t worst_triple[3] = {0, 0, 0};
     double worst_triple_margin_m = 0;
-    double max_sound_dba = 0;            // loudest focus: L_AE on axis at 0.5 m (pipeline/radiation.h)
+    double max_sound_dba = 0;            // loudest focus: L_AE on axis at 0.5 m (pipeline/verification/radiation.h)
     std::vector<pipeline::MultiTouchCase> sets;  // every pair (and triple) verified, superposed (and joint)
     double seconds = 0;                  // design and verification wall time
     std::string error;                   // a case that failed (refused lead time, ...)
@@ -64,7 +64,7 @@ struct LatencyResult {
     double threshold_m = 0;
     double crossing_s = 0;               // the lead time's lower bound for these exciters
     // An ideal isotropic focus of the scene's pulse on its plate, on the same
-    // criterion (pipeline/focus_ceiling.h): what no layout of exciters beats
+    // criterion (pipeline/verification/focus_ceiling.h): what no layout of exciters beats
     // by forming a round focus.
     pipeline::FocusCeiling ceiling;
     std::vector<pipeline::Point> exciters;

@@ -1,10 +1,9 @@
 #include "study/robustness.h"
 
+#include "io/read_file.h"
 #include "scene/calibration_input.h"
 
 #include <chrono>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 
 namespace calib::study {
@@ -24,12 +23,10 @@ pipeline::ToleranceSpec default_tolerance()
 
 RobustnessResult run_robustness_study(const RobustnessOptions &o, const StudyLog &log)
 {
-    std::ifstream f(o.scene_path, std::ios::binary);
-    if (!f)
+    const std::optional<std::string> bytes = io::read_file(o.scene_path);
+    if (!bytes)
         throw std::runtime_error(o.scene_path + ": cannot open scene file");
-    std::ostringstream bytes;
-    bytes << f.rdbuf();
-    pipeline::CalibrationInput in = scene::calibration_input(bytes.str(), o.scene_path);
+    pipeline::CalibrationInput in = scene::calibration_input(*bytes, o.scene_path);
     RobustnessResult r;
     r.scene_name = in.scene_name;
     r.scene_path = o.scene_path;

@@ -7,7 +7,7 @@
 // tolerance costs most whole-area contrast) and robustness.md.
 #pragma once
 #include "pipeline/calibrate.h"
-#include "pipeline/tolerance.h"
+#include "pipeline/robustness/tolerance.h"
 
 #include <functional>
 #include <optional>

@@ -1,12 +1,12 @@
 #include "study/sweep.h"
 
+#include "io/read_file.h"
 #include "scene/toml_fields.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 
 namespace calib::study {
@@ -161,12 +161,10 @@ std::string value_text(const toml::node &v)
 
 std::string read_file(const std::string &path, const std::string &what)
 {
-    std::ifstream in(path, std::ios::binary);
-    if (!in)
+    std::optional<std::string> bytes = io::read_file(path);
+    if (!bytes)
         throw SweepError(what + ": cannot open \"" + path + "\"");
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
+    return std::move(*bytes);
 }
 
 }  // namespace

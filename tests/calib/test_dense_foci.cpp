@@ -3,7 +3,8 @@
 // whole-area contrast map of the report, and a pitch grid of more foci than
 // the subset cap calibrated end to end.
 #include "pipeline/calibrate.h"
-#include "pipeline/focus_subset.h"
+#include "pipeline/placement/focus_subset.h"
+#include "pipeline/table_writer.h"
 #include "report/colormap.h"
 #include "report/contrast_map.h"
 #include "scene/calibration_input.h"

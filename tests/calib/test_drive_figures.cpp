@@ -2,9 +2,9 @@
 // and closed forms: the force energy and out-of-band fraction of tones, a
 // small baffled piston's pressure on axis (Rayleigh), IEC 61672-1's
 // A-weighting table and a tone's exposure.
-#include "pipeline/drive_figures.h"
-#include "pipeline/radiation.h"
-#include "pipeline/pulse.h"
+#include "pipeline/verification/drive_figures.h"
+#include "pipeline/verification/radiation.h"
+#include "pipeline/signal/pulse.h"
 #include "scene/calibration_input.h"
 
 #include <gtest/gtest.h>

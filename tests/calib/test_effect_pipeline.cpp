@@ -13,6 +13,7 @@
 #include "engine/simulation.h"
 #include "physics/dispersion.h"
 #include "pipeline/calibrate.h"
+#include "pipeline/verification/verification.h"
 #include "scene/calibration_input.h"
 #include "test_plate_util.h"
 #include "scene_text.h"
@@ -322,7 +323,7 @@ TEST(EffectPipeline, ThickPlatePipelineRefocuses)
     ASSERT_TRUE(in.effects.thick_plate);
     const pipeline::CalibrationResult r = pipeline::calibrate(in);
     const pipeline::FocusMetrics &m = r.verification.foci[0];
-    std::printf("thick plate: focal peak %.4g m at %.4g ms, field contrast %.2f dB\n", m.peak_m, m.peak_time_s * 1e3,
+    std::printf("thick plate: focal peak %.4g m at %.4g ms, field contrast %.2f dB\n", m.peak_m, m.lead_time_s * 1e3,
                 m.field_contrast_db);
     EXPECT_GT(m.peak_m, 0);
     EXPECT_GT(m.field_contrast_db, 0.0);  // the focus is the largest |w| on the plate (beyond lambda/2) at its instant

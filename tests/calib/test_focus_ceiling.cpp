@@ -4,7 +4,7 @@
 // its rings and scores higher (a second evaluation gives the Fig. 7 figure);
 // on a non-dispersive plate (k = 2 pi f / c) the ceiling does not depend on
 // c (the field scales with r / c).
-#include "pipeline/focus_ceiling.h"
+#include "pipeline/verification/focus_ceiling.h"
 
 #include <gtest/gtest.h>
 

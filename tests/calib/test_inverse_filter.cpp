@@ -11,11 +11,13 @@
 // linearity of the normal equations.
 #include "pipeline/calibrate.h"
 #include "pipeline/calibrate_stages.h"
-#include "pipeline/inverse_filter.h"
-#include "pipeline/lead_time.h"
-#include "pipeline/playback.h"
-#include "pipeline/radiation.h"
-#include "pipeline/verification.h"
+#include "pipeline/design/inverse_filter.h"
+#include "pipeline/data/lead_time.h"
+#include "pipeline/transfer/playback.h"
+#include "pipeline/verification/radiation.h"
+#include "pipeline/verification/verification.h"
+#include "pipeline/design/time_reversal.h"
+#include "pipeline/transfer/transfer.h"
 #include "scene/calibration_input.h"
 #include "scene/toml_fields.h"
 

@@ -10,14 +10,15 @@
 // amplified by the regularised system's condition number (about
 // 1 / regularization = 1e4) to ~1e-12 in a design (5e-15 measured here). The
 // minimax passes weigh the control points by their peaks played in single
-// precision (playback.h), where a sample on the other side of a float's
+// precision (pipeline/transfer/playback.h), where a sample on the other side of a float's
 // rounding moves a weight by ~6e-8 relative; 1e-9 leaves room for that on
 // this plate, and an error that is not round-off (one control point left
 // out) shows at 3e-3 or more.
 #include "pipeline/calibrate.h"
-#include "pipeline/inverse_filter.h"
-#include "pipeline/tolerance.h"
-#include "pipeline/verification.h"
+#include "pipeline/design/inverse_filter.h"
+#include "pipeline/robustness/tolerance.h"
+#include "pipeline/verification/verification.h"
+#include "pipeline/transfer/transfer.h"
 #include "scene/calibration_input.h"
 #include "scene_text.h"
 

@@ -41,7 +41,7 @@ struct SineMode {
 };
 
 // The simply supported modes of a nx x ny grid, lowest first: on this scheme
-// the sines are exact eigenvectors of both K and Gm (DOMAIN.md).
+// the sines are exact eigenvectors of both K and Gm (docs/physics.md, Energy, modes and reciprocity).
 std::vector<SineMode> sine_modes(const PlateOperator &op)
 {
     const Grid &g = op.grid();

@@ -3,9 +3,10 @@
 // superposed and designed jointly, each within the superposition's budget.
 #include "pipeline/calibrate.h"
 #include "pipeline/calibrate_stages.h"
-#include "pipeline/inverse_filter.h"
-#include "pipeline/multitouch.h"
-#include "pipeline/verification.h"
+#include "pipeline/design/inverse_filter.h"
+#include "pipeline/verification/multitouch.h"
+#include "pipeline/verification/verification.h"
+#include "pipeline/transfer/transfer.h"
 #include "scene/calibration_input.h"
 
 #include <gtest/gtest.h>

@@ -1,7 +1,7 @@
 // Placement: the band's keep-out rules, the seed's distance criterion on
 // patterns with known distances, the annealer against brute force, and the
 // reciprocity contrast model against a direct double sum.
-#include "pipeline/placement.h"
+#include "pipeline/placement/placement.h"
 
 #include <gtest/gtest.h>
 #include <omp.h>

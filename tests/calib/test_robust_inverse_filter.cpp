@@ -10,13 +10,13 @@
 // time reversal; the scene takes the combination and still refuses bad
 // robust specs in one line.
 #include "pipeline/calibrate.h"
-#include "pipeline/inverse_filter.h"
-#include "pipeline/lead_time.h"
-#include "pipeline/peaks.h"
-#include "pipeline/playback.h"
-#include "pipeline/pulse.h"
-#include "pipeline/tolerance.h"
-#include "pipeline/verification.h"
+#include "pipeline/design/inverse_filter.h"
+#include "pipeline/data/lead_time.h"
+#include "pipeline/signal/peaks.h"
+#include "pipeline/transfer/playback.h"
+#include "pipeline/signal/pulse.h"
+#include "pipeline/robustness/tolerance.h"
+#include "pipeline/verification/verification.h"
 #include "scene/calibration_input.h"
 #include "scene_text.h"
 

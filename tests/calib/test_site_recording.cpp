@@ -6,9 +6,11 @@
 // recording must hold, to float round-off (the field copies are float).
 #include "pipeline/calibrate.h"
 #include "pipeline/plan.h"
-#include "pipeline/site_recording.h"
-#include "pipeline/time_reversal.h"
-#include "pipeline/transfer.h"
+#include "pipeline/placement/site_recording.h"
+#include "pipeline/design/time_reversal.h"
+#include "pipeline/transfer/transfer.h"
+#include "pipeline/signal/pulse.h"
+#include "pipeline/signal/resample.h"
 #include "scene/calibration_input.h"
 
 #include "scene_text.h"

@@ -4,7 +4,9 @@
 // make_drive_signals) and test_placement.cpp (bands that cannot hold the
 // exciters).
 #include "pipeline/calibrate.h"
-#include "pipeline/placement.h"
+#include "pipeline/design/time_reversal.h"
+#include "pipeline/placement/placement.h"
+#include "pipeline/table_writer.h"
 #include "scene/calibration_input.h"
 
 #include <gtest/gtest.h>

@@ -2,8 +2,9 @@
 // a free-space delay-and-attenuate Green's function where the refocused pulse
 // must appear at the focus at the predicted instant, exact sines for the
 // resampler, and the statistics of TPDF dither.
-#include "pipeline/pulse.h"
-#include "pipeline/time_reversal.h"
+#include "pipeline/signal/pulse.h"
+#include "pipeline/design/time_reversal.h"
+#include "pipeline/signal/resample.h"
 
 #include <gtest/gtest.h>
 

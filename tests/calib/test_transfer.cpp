@@ -4,10 +4,10 @@
 // round-off), the decimated band-limited H against forward simulation within a
 // stated tolerance, and reciprocity (exciter -> point equals point -> exciter).
 #include "pipeline/calibrate.h"
-#include "pipeline/peaks.h"
-#include "pipeline/playback.h"
-#include "pipeline/transfer.h"
-#include "pipeline/verification.h"
+#include "pipeline/signal/peaks.h"
+#include "pipeline/transfer/playback.h"
+#include "pipeline/transfer/transfer.h"
+#include "pipeline/verification/verification.h"
 #include "scene/calibration_input.h"
 #include "scene_text.h"
 
@@ -144,7 +144,7 @@ TEST(Transfer, DecimatedBandLimitedMatrixMatchesForwardSimulationWithinTolerance
         const double p = fwd.foci[g].peak_m;
         ASSERT_GT(p, 0);
         EXPECT_NEAR(conv.foci[g].peak_m, p, 5e-3 * p) << "focus " << g;
-        EXPECT_NEAR(conv.foci[g].peak_time_s, fwd.foci[g].peak_time_s, 1 / H.rate_hz);
+        EXPECT_NEAR(conv.foci[g].lead_time_s, fwd.foci[g].lead_time_s, 1 / H.rate_hz);
         // Waveform: the forward trace at the decimated instants.
         const auto &c = conv.traces[0][g];
         const auto &f = fwd.traces[0][g];

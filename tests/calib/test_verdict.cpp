@@ -1,4 +1,4 @@
-// The verdict (calibrate.h FocusMetrics::passes): a focus passes when it
+// The verdict (data/verdict.h FocusMetrics::passes): a focus passes when it
 // crosses the threshold and nothing farther than lambda/2 from it reaches the
 // threshold at any time. Each figure is checked against a value known without
 // the code under test:
@@ -18,8 +18,8 @@
 //    instant: the ghost's place, its time and the clean table's verdict are
 //    known by construction.
 #include "pipeline/calibrate.h"
-#include "pipeline/peaks.h"
-#include "pipeline/verification.h"
+#include "pipeline/signal/peaks.h"
+#include "pipeline/verification/verification.h"
 
 #include <gtest/gtest.h>
 
@@ -247,7 +247,7 @@ TEST(VerdictHandBuilt, TheGhostAfterTheFocalInstantFailsItsFocus)
     const FocusMetrics &g = v.foci[1];
     EXPECT_EQ(g.id, 9u);
     EXPECT_NEAR(g.peak_m, 10 * um, rel * 10 * um);
-    EXPECT_NEAR(g.peak_time_s, 11 / rate_hz, 1e-3 / rate_hz);  // the state after step 11
+    EXPECT_NEAR(g.lead_time_s, 11 / rate_hz, 1e-3 / rate_hz);  // the state after step 11
     EXPECT_NEAR(g.max_other_foci_m, 2 * um, rel * 2 * um);
     EXPECT_NEAR(g.other_foci_contrast_db, db(10, 2), 1e-3);
     EXPECT_TRUE(g.crosses_threshold);
@@ -450,14 +450,14 @@ TEST(VerdictGhost, FailsATableWhoseOnlyDefectIsAGhostBetweenTheFoci)
     // The ghost rings above the threshold, well after the focal instant.
     const FocusMetrics &clean = g.clean_v.foci[g.ghost_focus];
     EXPECT_GT(g.ghost_peak_m, 1.2 * thr);
-    EXPECT_GT(g.ghost_time_s, clean.peak_time_s + 0.005);
+    EXPECT_GT(g.ghost_time_s, clean.lead_time_s + 0.005);
 
     const pipeline::Verification &v = g.result.verification;
     const FocusMetrics &m = v.foci[g.ghost_focus];
     SCOPED_TRACE("ghosted focus " + std::to_string(m.id) + ": " + m.failure(thr));
     // Its own peak, its instant and the field then are the clean table's.
     EXPECT_NEAR(m.peak_m, clean.peak_m, 1e-6 * clean.peak_m);
-    EXPECT_NEAR(m.peak_time_s, clean.peak_time_s, 1e-9);
+    EXPECT_NEAR(m.lead_time_s, clean.lead_time_s, 1e-9);
     EXPECT_NEAR(m.max_elsewhere_m, clean.max_elsewhere_m, 1e-6 * clean.max_elsewhere_m);
     EXPECT_LT(m.max_elsewhere_m, thr);  // at the focal instant nothing reaches the threshold
     EXPECT_TRUE(m.crosses_threshold);

@@ -11,6 +11,7 @@
 //    at a lattice point we chose, well after its focal instant; the scaled
 //    table without the ghost must pass.
 #include "pipeline/calibrate.h"
+#include "pipeline/table_writer.h"
 
 #include <haptic_table.h>
 

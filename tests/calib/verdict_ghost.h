@@ -9,12 +9,13 @@
 // every focus, ring above the threshold well after the focal instant.
 #pragma once
 #include "pipeline/calibrate.h"
-#include "pipeline/lead_time.h"
-#include "pipeline/peaks.h"
-#include "pipeline/playback.h"
-#include "pipeline/pulse.h"
-#include "pipeline/time_reversal.h"
-#include "pipeline/verification.h"
+#include "pipeline/data/lead_time.h"
+#include "pipeline/signal/peaks.h"
+#include "pipeline/transfer/playback.h"
+#include "pipeline/signal/pulse.h"
+#include "pipeline/design/time_reversal.h"
+#include "pipeline/verification/verification.h"
+#include "pipeline/transfer/transfer.h"
 #include "scene/calibration_input.h"
 
 #include <gtest/gtest.h>

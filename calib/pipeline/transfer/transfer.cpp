@@ -1,0 +1,159 @@
+#include "pipeline/transfer/transfer.h"
+
+#include "engine/simulation.h"
+#include "physics/dispersion.h"
+#include "pipeline/data/lead_time.h"
+#include "pipeline/signal/pulse.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace calib::pipeline {
+
+namespace {
+
+// Kaiser's design for an 80 dB stop band (Oppenheim & Schafer, 7.6):
+// beta = 0.1102 (A - 8.7), length (A - 8) / (2.285 delta_omega).
+constexpr double stop_band_db = 80.0;
+
+}  // namespace
+
+std::vector<double> band_limited_impulse(double k, double pass_hz, double stop_hz, std::size_t &centre)
+{
+    if (!(stop_hz > pass_hz && pass_hz > 0 && stop_hz * k < 0.5))
+        throw std::invalid_argument("band-limited force: need 0 < pass < stop < half the simulation rate");
+    const double delta_omega = 2 * std::numbers::pi * (stop_hz - pass_hz) * k;
+    const auto half = static_cast<std::size_t>(std::ceil((stop_band_db - 8) / (2.285 * delta_omega) / 2));
+    const double beta = 0.1102 * (stop_band_db - 8.7);
+    const double fc = 0.5 * (pass_hz + stop_hz) * k;  // cycles per step
+    std::vector<double> b(2 * half + 1);
+    const double i0b = std::cyl_bessel_i(0.0, beta);
+    double sum = 0;
+    for (std::size_t n = 0; n < b.size(); n++) {
+        const double m = double(n) - double(half);
+        const double r = m / double(half);
+        const double window = std::cyl_bessel_i(0.0, beta * std::sqrt(std::max(0.0, 1 - r * r))) / i0b;
+        const double sinc = m == 0 ? 2 * fc : std::sin(2 * std::numbers::pi * fc * m) / (std::numbers::pi * m);
+        b[n] = window * sinc;
+        sum += b[n];
+    }
+    for (double &v : b)
+        v /= sum * k;  // unit impulse: sum b k = 1 N s
+    centre = half;
+    return b;
+}
+
+ObservationLattice observation_lattice(const CalibrationInput &in, int stride)
+{
+    const engine::Grid &g = in.plate->grid();
+    ObservationLattice l;
+    l.stride = std::max(1, stride);
+    l.cols = g.nx / l.stride + 1;
+    l.rows = g.ny / l.stride + 1;
+    l.spacing_m = l.stride * g.h;
+    return l;
+}
+
+TransferOptions transfer_options(const CalibrationInput &in, double k)
+{
+    TransferOptions o;
+    const double f_max = pulse_max_frequency_hz(in.pulse);
+    const double wanted_rate = search_rate(in.pulse);
+    o.decimation = std::max<std::size_t>(1, static_cast<std::size_t>(std::floor(1.0 / (k * wanted_rate))));
+    const double rate = 1.0 / (double(o.decimation) * k);
+    // The kept window (the time-reversal recording) and the verification tail
+    // after a drive as long as it: every playback output the verification reads.
+    const double kept_s = kept_window_s(in);
+    o.samples = static_cast<std::size_t>(std::ceil((kept_s + in.calibration.verify_tail_s) * rate)) + 1;
+    const double lambda_min = physics::kirchhoff_wavelength_m(in.plate->kappa(), f_max);
+    o.lattice_stride = std::max(1, static_cast<int>(std::floor(lambda_min / 4 / in.plate->grid().h)));
+    // Flat past the pulse's band with margin; stopped from half the stored rate.
+    o.stop_hz = 0.5 * rate;
+    o.pass_hz = std::min(1.3 * f_max, 0.75 * o.stop_hz);
+    return o;
+}
+
+TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<Point> &exciters,
+                                 const std::vector<Point> &exact_points, const TransferOptions &o,
+                                 const TransferProgress &progress)
+{
+    TransferMatrix H;
+    H.channels = exciters.size();
+    H.exciters = exciters;
+    H.samples = o.samples;
+    H.decimation = std::max<std::size_t>(1, o.decimation);
+    if (o.lattice_stride > 0) {
+        H.lattice = observation_lattice(in, o.lattice_stride);
+        for (std::size_t n = 0; n < H.lattice.size(); n++)
+            H.points.push_back(H.lattice.at(n));
+    }
+    H.points.insert(H.points.end(), exact_points.begin(), exact_points.end());
+    const std::size_t P = H.points.size(), S = H.samples, L = H.lattice.size();
+    H.data.assign(H.channels * P * S, 0.0f);
+    std::size_t done = 0;
+    std::string failure;
+#pragma omp parallel for schedule(dynamic)
+    for (std::size_t c = 0; c < H.channels; c++) {
+        try {
+            engine::Simulation sim(in.plate, single_core_options(in));
+            const double k = sim.time_step_s();
+#pragma omp critical
+            {
+                H.time_step_s = k;
+                H.rate_hz = 1.0 / (double(H.decimation) * k);
+            }
+            const std::size_t src = sim.add_source(exciters[c].x_m, exciters[c].y_m);
+            std::size_t centre = 0;
+            if (o.stop_hz > 0)
+                sim.set_source_signal(src, band_limited_impulse(k, o.pass_hz, o.stop_hz, centre));
+            else
+                sim.set_source_impulse(src);
+            for (const Point &p : exact_points)
+                sim.add_receiver(p.x_m, p.y_m);
+            float *out = H.data.data() + c * P * S;
+            // Sample s is the state after step centre + s M (trace index).
+            if (L > 0)
+                sim.record_lattice(H.lattice.stride, centre, H.decimation);
+            sim.run(centre + (S - 1) * H.decimation + 1);
+            const std::vector<float> &frames = sim.lattice_frames();
+            for (std::size_t s = 0; s < S && L > 0; s++)
+                for (std::size_t n = 0; n < L; n++)
+                    out[n * S + s] = frames[s * L + n];
+            for (std::size_t r = 0; r < exact_points.size(); r++) {
+                const std::vector<double> &tr = sim.traces()[r];
+                for (std::size_t s = 0; s < S; s++)
+                    out[(L + r) * S + s] = static_cast<float>(tr[centre + s * H.decimation]);
+            }
+        } catch (const std::exception &ex) {
+#pragma omp critical
+            failure = "transfer matrix, exciter " + std::to_string(c + 1) + ": " + ex.what();
+        }
+#pragma omp critical
+        {
+            done++;
+            if (progress)
+                progress(done, H.channels);
+        }
+    }
+    if (!failure.empty())
+        throw std::runtime_error(failure);
+    return H;
+}
+
+TransferMatrix transfer_for(const CalibrationInput &in, const std::vector<Point> &exciters, const ProgressFn &progress)
+{
+    engine::Simulation probe(in.plate, single_core_options(in));
+    const TransferOptions o = transfer_options(in, probe.time_step_s());
+    std::vector<Point> foci;
+    for (const FocusPoint &f : in.foci.points)
+        foci.push_back(f.at);
+    return simulate_transfer(in, exciters, foci, o, [&](size_t done, size_t total) {
+        if (progress)
+            progress("transfer", done, total);
+    });
+}
+
+}  // namespace calib::pipeline
