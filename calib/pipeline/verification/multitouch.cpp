@@ -6,54 +6,73 @@
 #include "pipeline/transfer/playback.h"
 #include "pipeline/verification/verification.h"
 
+#include <haptic_mix.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace calib::pipeline {
 
 namespace {
 
-constexpr std::size_t peak_block = 64;  // firmware/src/program.h HD_PEAK_BLOCK
+struct GramView {
+    const std::vector<double> *g;
+    std::size_t k;
+};
+
+double gram_at(const void *ctx, uint32_t i, uint32_t j)
+{
+    const auto *v = static_cast<const GramView *>(ctx);
+    return (*v->g)[i * v->k + j];
+}
 
 }  // namespace
 
-double mixer_gain(const std::vector<const std::vector<int16_t> *> &s, unsigned C)
+DeviceMix device_mix(const std::vector<const std::vector<int16_t> *> &s, unsigned C, double level, double gain_limit)
 {
     const std::size_t K = s.size();
     std::size_t n = 0;
     for (const auto *x : s)
         n = std::max(n, x->size());
-    // Gram entries over the common length (shorter signals end in silence).
-    double e_ref = 0, e_sum = 0;
+    // The Gram matrix over the common length, exact integer sums rounded once
+    // (as a table's own: the device reads it from the table).
+    std::vector<double> gram(K * K);
     for (std::size_t i = 0; i < K; i++)
         for (std::size_t j = 0; j < K; j++) {
             const std::size_t m = std::min(s[i]->size(), s[j]->size());
-            double g = 0;
+            int64_t dot = 0;
             for (std::size_t k = 0; k < m; k++)
-                g += double((*s[i])[k]) * double((*s[j])[k]);
-            e_sum += g;
-            if (i == j)
-                e_ref += g;
+                dot += int64_t((*s[i])[k]) * int64_t((*s[j])[k]);
+            gram[i * K + j] = double(dot);
         }
-    e_ref /= double(K);
-    const double g_energy = e_sum > 0 ? std::sqrt(e_ref / e_sum) : 0.0;
-    double bound = 0;
-    const std::size_t frames = n / C;
-    for (std::size_t b = 0; b * peak_block < frames; b++)
-        for (unsigned c = 0; c < C; c++) {
-            double sum = 0;
-            for (const auto *x : s) {
-                int peak = 0;
-                for (std::size_t f = b * peak_block; f < std::min(frames, (b + 1) * peak_block); f++)
-                    if (f * C + c < x->size())
-                        peak = std::max(peak, std::abs(int((*x)[f * C + c])));
-                sum += peak;
-            }
-            bound = std::max(bound, sum);
-        }
-    const double g_peak = bound > 0 ? 32767.0 / bound : 1.0;
-    return std::min({g_energy, g_peak, 1.0});
+    // The peak envelopes, each over its own frames, silence after.
+    const uint32_t frames = uint32_t(n / C), blocks = haptic_mix_blocks(frames);
+    std::vector<std::vector<uint16_t>> env(K, std::vector<uint16_t>(std::size_t(blocks) * C, 0));
+    std::vector<const uint16_t *> envs(K);
+    for (std::size_t k = 0; k < K; k++) {
+        haptic_mix_block_peaks(s[k]->data(), uint32_t(s[k]->size() / C), C, env[k].data());
+        envs[k] = env[k].data();
+    }
+    const GramView view{&gram, K};
+    haptic_mix_gain g;
+    haptic_mix_gain_of(gram_at, &view, uint32_t(K), haptic_mix_peak_bound(envs.data(), uint32_t(K), blocks, C), level,
+                       gain_limit, &g);
+    // The device's render: the exact sum of the counts times the Q30 gain.
+    std::vector<int64_t> acc(n, 0);
+    for (const auto *x : s)
+        for (std::size_t i = 0; i < x->size(); i++)
+            acc[i] += (*x)[i];
+    for (auto &a : acc)
+        a *= g.gain_q30;
+    DeviceMix out;
+    out.gain = g.gain;
+    out.samples.resize(n);
+    haptic_mix_to_s16(acc.data(), out.samples.data(), uint32_t(n));
+    return out;
 }
+
+double mixer_gain(const std::vector<const std::vector<int16_t> *> &s, unsigned C) { return device_mix(s, C).gain; }
 
 double SetVerdict::contrast_db() const
 {
@@ -186,11 +205,12 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
         std::vector<const std::vector<int16_t> *> s;
         for (std::size_t f : mc.foci)
             s.push_back(&signals[f]);
-        const double g = mixer_gain(s, unsigned(C));
+        // The field of what the device plays for these fingers.
+        const DeviceMix played = device_mix(s, unsigned(C));
+        const double g = played.gain;
         std::vector<float> mix(frames * C, 0.0f);
-        for (const auto *x : s)
-            for (std::size_t i = 0; i < x->size(); i++)
-                mix[i] += static_cast<float>(g * double((*x)[i]) / 32767.0);
+        for (std::size_t i = 0; i < played.samples.size(); i++)
+            mix[i] = static_cast<float>(double(played.samples[i]) / 32767.0);
         mc.superposed = judge(mc.foci, mix, g, false);
         if (options.joint) {
             const std::vector<int16_t> &x = joint[k];

@@ -63,7 +63,19 @@ struct MultiTouchOptions {
     bool joint = false;                 // design each set jointly too (the inverse filter)
 };
 
-// The firmware's gain for a set of stored foci ([n][c] int16 counts).
+// What the device plays for a set of stored foci ([n][c] int16 counts; a
+// shorter signal ends in silence) played together: the mixing law of
+// common/haptic_mix.h (the one hapticd calls) at the user's level and the
+// board's gain limit, applied in Q30 and rounded to S16 as the device does,
+// so calibgen judges the device's samples, not a model of them.
+struct DeviceMix {
+    double gain = 0;                    // the law's g
+    std::vector<int16_t> samples;       // [n][c], the longest signal's length
+};
+DeviceMix device_mix(const std::vector<const std::vector<int16_t> *> &signals, unsigned channels, double level = 1.0,
+                     double gain_limit = 1.0);
+
+// The law's gain for a set of stored foci (device_mix(...).gain).
 double mixer_gain(const std::vector<const std::vector<int16_t> *> &signals, unsigned channels);
 
 // Every pair of foci at least lambda/2 apart (and, with `triples`, every
