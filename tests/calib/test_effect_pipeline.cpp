@@ -1,5 +1,5 @@
-// Effects composed into calibgen's simulations (issue #6 part 3,
-// docs/effects.md "What is composed where"): the finger in every engine
+// Effects composed into calibgen's simulations (docs/effects.md, "What is
+// composed where"): the finger in every engine
 // variant of Simulation and in the verification (playback) runs of the
 // pipeline only; the thick plate (Mindlin engine) in every simulation.
 //

@@ -1,4 +1,4 @@
-// Stability suite, pipeline side (issue #6, part 2): degenerate inputs give
+// Stability suite, pipeline side: degenerate inputs give
 // clear errors, never NaN gains, and a diverged simulation never reaches a
 // table. Complements test_time_reversal.cpp (all-zero and NaN recordings in
 // make_drive_signals) and test_placement.cpp (bands that cannot hold the
