@@ -58,8 +58,10 @@ void haptic_mix_gain_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j),
     if (g > gain_limit)
         g = gain_limit;
     out->gain = g;
-    out->gain_q30 = (int64_t)llround(g * (double)(1 << HAPTIC_MIX_GAIN_FRAC_BITS));
+    out->gain_q30 = haptic_mix_q30(g);
 }
+
+int64_t haptic_mix_q30(double gain) { return (int64_t)llround(gain * (double)(1 << HAPTIC_MIX_GAIN_FRAC_BITS)); }
 
 /* Right shifts of negative int64 are arithmetic on every compiler we build
  * with (GCC, Clang), so (x + half) >> s rounds half up. */

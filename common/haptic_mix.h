@@ -18,7 +18,7 @@
  *   level: the user's intensity (linear; 1 = the table's own level: hapticd's
  *     intensity control, calibgen judges at 1);
  *   gain_limit: the board's [mixer] gain_limit (calibgen judges at 1).
- * The gain is applied in fixed point, Q30 (haptic_mix_gain_q30), and the
+ * The gain is applied in fixed point, Q30 (haptic_mix_q30), and the
  * accumulated sum rounded half up and saturated to the device format
  * (haptic_mix_to_s16 / _s32). Real-time safe: no allocation, no lock. */
 #ifndef HAPTIC_MIX_H
@@ -54,6 +54,9 @@ typedef struct haptic_mix_gain {
  * (i, j < count), peak_bound their P(S). count >= 1, level >= 0. */
 void haptic_mix_gain_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j), const void *ctx, uint32_t count,
                         uint32_t peak_bound, double level, double gain_limit, haptic_mix_gain *out);
+
+/* A gain in the fixed point it is applied in: round(g * 2^30). */
+int64_t haptic_mix_q30(double gain);
 
 /* Accumulated Q30 samples (table counts * 2^30) to the device format, rounded
  * half up and saturated. Return how many samples saturated. S32 full scale

@@ -26,8 +26,6 @@ int hd_mixer_gain(const struct hd_program *p, double level, double gain_limit, s
 /* Energy sum_{f,f' in S} G[f][f'] of the unscaled sum (O(K^2) from the Gram matrix). */
 double hd_mixer_sum_energy(const struct hd_program *p, const uint32_t *index, uint32_t count);
 
-/* The device formats: haptic_mix_to_s16 / haptic_mix_to_s32. */
-#define hd_mixer_to_s16 haptic_mix_to_s16
-#define hd_mixer_to_s32 haptic_mix_to_s32
+/* The device formats: haptic_mix_to_s16 / haptic_mix_to_s32 (haptic_mix.h). */
 
 #endif

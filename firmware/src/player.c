@@ -3,7 +3,6 @@
 #include "player.h"
 
 #include <errno.h>
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -128,7 +127,7 @@ static int admit(struct hd_player *pl, const struct hd_program *p, struct hd_mix
         return 0;
     if (g < m->gain) {
         m->gain = g;
-        m->gain_q30 = (int64_t)llround(g * (double)(1 << HAPTIC_MIX_GAIN_FRAC_BITS));
+        m->gain_q30 = haptic_mix_q30(g);
     }
     return 1;
 }
@@ -208,8 +207,8 @@ void hd_player_render(struct hd_player *pl, void *out, uint32_t frames)
     }
     if (pl->protected)
         hd_protect_played(&pl->protect, pl->acc, frames, pl->channels, device_ns(pl, f1));
-    pl->stats.clipped_samples += pl->format == HD_FMT_S16_LE ? hd_mixer_to_s16(pl->acc, out, n)
-                                                             : hd_mixer_to_s32(pl->acc, out, n);
+    pl->stats.clipped_samples += pl->format == HD_FMT_S16_LE ? haptic_mix_to_s16(pl->acc, out, n)
+                                                             : haptic_mix_to_s32(pl->acc, out, n);
     pl->frame = f1;
     if (f1 > pl->rewind_window && f1 - pl->rewind_window > pl->committed)
         pl->committed = f1 - pl->rewind_window;

@@ -278,7 +278,7 @@ static void conversion_rounding_and_saturation(void **state)
                            -32768 * one, -32769 * one, INT64_MAX / 4, -(INT64_MAX / 4)};
     const int16_t want16[] = {0, 1, 0, 1, -1, 32767, 32767, -32768, -32768, 32767, -32768};
     int16_t out16[11];
-    assert_int_equal(hd_mixer_to_s16(acc, out16, 11), 4);
+    assert_int_equal(haptic_mix_to_s16(acc, out16, 11), 4);
     for (int i = 0; i < 11; i++)
         assert_int_equal(out16[i], want16[i]);
     const int64_t u = (int64_t)1 << 14; /* one S32 LSB */
@@ -286,7 +286,7 @@ static void conversion_rounding_and_saturation(void **state)
                              (int64_t)INT32_MIN * u, ((int64_t)INT32_MIN - 1) * u};
     const int32_t want32[] = {1, 0, INT32_MAX, INT32_MAX, INT32_MIN, INT32_MIN};
     int32_t out32[6];
-    assert_int_equal(hd_mixer_to_s32(acc32, out32, 6), 2);
+    assert_int_equal(haptic_mix_to_s32(acc32, out32, 6), 2);
     for (int i = 0; i < 6; i++)
         assert_int_equal(out32[i], want32[i]);
 }
