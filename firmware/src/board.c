@@ -305,20 +305,20 @@ static int rating_key(struct parse_ctx *c, const char *section, const char *name
         errno = 0;
         double v = strtod(p, &end);
         if (errno || end == p || !(v > lo) || !(v <= hi) || n == HD_MAX_CHANNELS)
-            return bad(c, section, name, "'%s' is not one number or a list of up to %u, each in (%g, %g]", value,
-                       HD_MAX_CHANNELS, lo, hi);
+            break;
         out[n++] = v;
         p = end;
         while (*p == ' ' || *p == '\t')
             p++;
-        if (!*p)
-            break;
+        if (!*p) {
+            *count = n;
+            return 1;
+        }
         if (*p++ != ',')
-            return bad(c, section, name, "'%s' is not one number or a list of up to %u, each in (%g, %g]", value,
-                       HD_MAX_CHANNELS, lo, hi);
+            break;
     }
-    *count = n;
-    return 1;
+    return bad(c, section, name, "'%s' is not one number or a list of up to %u, each in (%g, %g]", value,
+               HD_MAX_CHANNELS, lo, hi);
 }
 
 static int exciters_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
