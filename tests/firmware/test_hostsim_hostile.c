@@ -321,7 +321,7 @@ static void early_signals_are_not_lost(void **state)
  * within the rating on every channel at every sample, and every trigger is
  * accounted for (played, lowered or skipped). Without [exciters] the same
  * storm heats the coils past it. */
-static double storm_worst_heat(const char *wav, double rated_w)
+static double storm_worst_heat(const char *wav)
 {
     sf_count_t frames;
     int32_t *w = hs_read_wav(wav, &frames, SF_FORMAT_PCM_32);
@@ -337,7 +337,6 @@ static double storm_worst_heat(const char *wav, double rated_w)
         }
     }
     free(w);
-    (void)rated_w;
     return worst;
 }
 
@@ -363,7 +362,7 @@ static void a_touch_storm_stays_within_the_exciters_ratings(void **state)
         char *argv[] = {"hapticd", "--board", f.board, "--table", f.table, "--script", f.script,
                         "--alsa-device", f.device, NULL};
         assert_int_equal(wait_exit_within(hs_spawn(argv, f.err), 60), 0);
-        const double worst = storm_worst_heat(f.wav, rated);
+        const double worst = storm_worst_heat(f.wav);
         size_t len;
         char *log = hs_slurp(f.err, &len);
         unsigned long long frames, voices, lowered, skipped;
