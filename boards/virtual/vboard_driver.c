@@ -7,9 +7,11 @@
  * capture side, sends triggers through hapticd's host trigger FIFO (and with
  * --touch, touches through a uinput panel), provokes a capture overrun and a
  * playback underrun, stops hapticd, and checks every voice in the recording
- * against the table. Last, it starts hapticd again and removes the loopback
- * card under it while it plays (the snd-aloop platform device unbound from
- * its driver): hapticd must give up on the failed device and exit 1.
+ * against the table. Then it plays a storm of triggers on the board with
+ * exciter ratings and checks the recorded heat against them. Last, it starts
+ * hapticd again and removes the loopback card under it while it plays (the
+ * snd-aloop platform device unbound from its driver): hapticd must give up
+ * on the failed device and exit 1.
  * One "vboard: PASS|FAIL name: detail" line per check; exit status 1 if any
  * failed. */
 #define _GNU_SOURCE
@@ -494,6 +496,126 @@ static void check_failing_device(struct run *r)
     printf("hapticd log (failing device):\n%s", text ? text : "");
 }
 
+/* The exciters' ratings through the real driver: hapticd again, on the
+ * board with [exciters] and [amplifier] ratings that a storm of triggers
+ * would exceed STORM_OVER times over unprotected, while the capture records
+ * what reached the exciters. The heat of every channel is computed here from
+ * the recorded samples, with the first-order model of firmware/src/protect.h
+ * written out independently (per sample: heat = a heat + (1 - a) power, a =
+ * exp(-1 / (tau rate))); it must stay within the rating, every trigger must
+ * be counted, and the protection must have acted. */
+#define STORM_BOARD_PATH "/tmp/vboard-storm.ini"
+#define STORM_LOG_PATH "/tmp/hapticd-storm.log"
+#define STORM_TRIGGERS 150
+#define STORM_SPACING_MS 10
+#define STORM_OVER 4.0
+#define STORM_VOLTS 10.0
+#define STORM_OHMS 8.0
+#define STORM_TAU_S 0.5
+
+static void check_storm(struct run *r)
+{
+    const char *name = "touch storm within the ratings";
+    const haptic_table *t = &r->table;
+    const unsigned C = t->channel_count;
+    /* Joules per count^2 and sample, and the heat the storm would give
+     * unprotected: each trigger a whole voice (uncorrelated foci add in
+     * energy), one every STORM_SPACING_MS, focus after focus. */
+    const double j = (STORM_VOLTS / 32767.0) * (STORM_VOLTS / 32767.0) / STORM_OHMS / t->sample_rate_hz;
+    double unprotected_w = 0;
+    for (unsigned c = 0; c < C; c++) {
+        double e = 0;
+        for (uint32_t f = 0; f < t->focus_count; f++) {
+            const int16_t *s = haptic_table_signal(t, f);
+            for (uint32_t n = 0; n < t->samples_per_signal; n++)
+                e += (double)s[(size_t)n * C + c] * s[(size_t)n * C + c];
+        }
+        const double w = j * e / t->focus_count / (STORM_SPACING_MS / 1e3);
+        if (w > unprotected_w)
+            unprotected_w = w;
+    }
+    const double rating_w = unprotected_w / STORM_OVER;
+    const char *base = read_text(r->board);
+    FILE *b = fopen(STORM_BOARD_PATH, "w");
+    if (!base || !b) {
+        vb_result(0, name, "writing %s: %s", STORM_BOARD_PATH, strerror(errno));
+        if (b)
+            fclose(b);
+        return;
+    }
+    fprintf(b, "%s\n[exciters]\nrated_power_w = %.6f\nimpedance_ohm = %.1f\nthermal_tau_s = %.2f\n"
+               "[amplifier]\nfull_scale_v = %.1f\n",
+            base, rating_w, STORM_OHMS, STORM_TAU_S, STORM_VOLTS);
+    fclose(b);
+
+    if (r->fifo >= 0)
+        close(r->fifo); /* the first run's FIFO */
+    r->fifo = -1;
+    const char *board = r->board;
+    r->board = STORM_BOARD_PATH;
+    r->log = STORM_LOG_PATH;
+    int rc = start_hapticd(r, NULL);
+    r->board = board;
+    if (rc) {
+        vb_result(0, name, "hapticd did not start on %s: %s", STORM_BOARD_PATH, strerror(-rc));
+        printf("hapticd log (storm):\n%s", read_text(r->log) ? read_text(r->log) : "");
+        stop_hapticd(r);
+        return;
+    }
+    if ((rc = vb_capture_open(&r->cap, CAPTURE_PCM, C, t->sample_rate_hz, 10.0)) || (rc = vb_capture_start(&r->cap))) {
+        vb_result(0, name, "capture %s: %s", CAPTURE_PCM, snd_strerror(rc));
+        stop_hapticd(r);
+        return;
+    }
+    sleep_ms(300);
+    unsigned sent = 0;
+    for (unsigned i = 0; i < STORM_TRIGGERS; i++) {
+        haptic_focus_info f;
+        haptic_table_focus(t, i % t->focus_count, &f);
+        char line[32];
+        int n = snprintf(line, sizeof line, "focus %u\n", f.id);
+        if (write(r->fifo, line, (size_t)n) == n)
+            sent++;
+        sleep_ms(STORM_SPACING_MS);
+    }
+    sleep_ms(500);
+    vb_capture_stop(&r->cap);
+    int status = stop_hapticd(r);
+    close(r->fifo);
+    r->fifo = -1;
+    const long counted = report_value("triggers "), lowered = report_value("voices_lowered "),
+               skipped = report_value("voices_skipped ");
+
+    /* The heat of each channel over the recording (S32: table counts x 2^16). */
+    const double a = exp(-1.0 / (STORM_TAU_S * r->cap.rate_hz));
+    const size_t frames = atomic_load(&r->cap.count);
+    double max_heat_w = 0, played_j = 0;
+    for (unsigned c = 0; c < C; c++) {
+        double heat = 0;
+        for (size_t i = 0; i < frames; i++) {
+            const double x = r->cap.frames[i * C + c] / 65536.0;
+            heat = a * heat + (1 - a) * x * x * j * r->cap.rate_hz;
+            played_j += x * x * j;
+            if (heat > max_heat_w)
+                max_heat_w = heat;
+        }
+    }
+    const unsigned segments = atomic_load(&r->cap.segment_count);
+    /* 1 %: the recorded samples are the device format's, the heat hapticd
+     * keeps is of its accumulators (the same to within rounding). */
+    int ok = status == 0 && segments == 1 && r->cap.error == 0 && sent == STORM_TRIGGERS &&
+             counted == (long)sent && lowered + skipped > 0 && max_heat_w <= rating_w * 1.01 && played_j > 0;
+    vb_result(ok, name,
+              "%u triggers %d ms apart (%ld counted): %ld voices lowered, %ld skipped; hottest coil %.3f W for a "
+              "%.3f W rating (unprotected the storm gives %.3f W); %.3f J reached the exciters; %u capture "
+              "segment(s); hapticd exit status %d",
+              sent, STORM_SPACING_MS, counted, lowered, skipped, max_heat_w, rating_w, unprotected_w, played_j,
+              segments, status);
+    if (!ok)
+        printf("hapticd log (storm):\n%s", read_text(r->log) ? read_text(r->log) : "");
+    vb_capture_close(&r->cap);
+}
+
 static int run(struct run *r)
 {
     haptic_table_error err;
@@ -551,6 +673,7 @@ static int run(struct run *r)
         printf("hapticd latency report:\n%s", lat);
     printf("hapticd log:\n%s", read_text(r->log) ? read_text(r->log) : "");
     vb_capture_close(&r->cap); /* the card cannot go while we hold it open */
+    check_storm(r);
     check_failing_device(r);   /* last: the card is gone after it */
     vb_touch_close(&r->panel);
     haptic_table_close(&r->table);

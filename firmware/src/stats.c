@@ -134,6 +134,8 @@ void hd_stats_latency_report(const char *path, struct hd_engine *e, double buffe
             rss_kib("VmHWM:"), rss_kib("RssAnon:"), rss_kib("RssFile:"));
     fprintf(f, "table_bytes %zu\n", e->current ? e->current->table.size : 0);
     fprintf(f, "xruns %llu\n", (unsigned long long)atomic_load(&e->stats.xruns));
+    fprintf(f, "voices_lowered %llu\nvoices_skipped %llu\n", (unsigned long long)atomic_load(&e->stats.voices_attenuated),
+            (unsigned long long)atomic_load(&e->stats.voices_skipped));
     fprintf(f, "rewinds %llu\nrewound_frames %llu\n", (unsigned long long)atomic_load(&e->stats.rewinds),
             (unsigned long long)atomic_load(&e->stats.rewound_frames));
     if (f != stdout)
