@@ -29,7 +29,7 @@ extern "C" {
 
 #define HAPTIC_TABLE_MAGIC "HAPTBL\r\n"          /* 8 bytes, no terminator */
 #define HAPTIC_TABLE_VERSION_MAJOR 1u
-#define HAPTIC_TABLE_VERSION_MINOR 2u            /* newest minor this code writes and fully checks */
+#define HAPTIC_TABLE_VERSION_MINOR 3u            /* newest minor this code writes and fully checks */
 #define HAPTIC_TABLE_HEADER_SIZE 128u
 #define HAPTIC_TABLE_CHANNEL_RECORD_SIZE 16u
 #define HAPTIC_TABLE_FOCUS_RECORD_SIZE 48u
@@ -50,6 +50,11 @@ extern "C" {
 #define HAPTIC_TABLE_FLAG_PLAYBACK 0x00010000u
 /* Optional flag (1.2): the panel section is present (its offset at header byte 104). */
 #define HAPTIC_TABLE_FLAG_PANEL 0x00020000u
+/* Optional flag (1.3): the range section is present (its offset at header byte 112). */
+#define HAPTIC_TABLE_FLAG_RANGE 0x00040000u
+
+/* The range section's limits (a reader refuses values outside them). */
+#define HAPTIC_TABLE_RANGE_MAX_GAIN 1e6            /* lo <= this; hi <= this or +infinity */
 
 /* The panel section's ranges (a reader refuses values outside them). */
 #define HAPTIC_TABLE_PANEL_MIN_TEMPERATURE_C (-100.0)
@@ -137,6 +142,7 @@ typedef struct haptic_table {
     double force_full_scale_n; /* force (N) of sample 32767 at gain 1; NaN if unknown */
     uint16_t drive_kind;       /* enum haptic_drive_kind */
     uint64_t panel_offset;     /* 0 without a panel section */
+    uint64_t range_offset;     /* 0 without a range section */
 } haptic_table;
 
 /* The plate the drives were calibrated for (1.2 panel section): what a
@@ -147,6 +153,44 @@ typedef struct haptic_panel {
     double temperature_c;      /* the plate's temperature in the calibration, degrees Celsius */
     double youngs_per_k;       /* the plate's relative change of Young's modulus per kelvin (dE/E/dT, 1/K) */
 } haptic_panel;
+
+/* Where the verdict behind a range section looked (1.3). */
+enum haptic_range_scope {
+    HAPTIC_RANGE_WHOLE_AREA = 1, /* every point of the active area farther than lambda/2 from the focus */
+    HAPTIC_RANGE_FOCI_ONLY = 2,  /* only the other foci farther than lambda/2 (no area was measured) */
+};
+
+/* The safe range of one focus (1.3 range section): the gains, applied to the
+ * stored samples (1 = as stored), over which the focus passes the verdict.
+ * lo: the gain at which the focal peak just reaches the threshold
+ * (threshold / peak); hi: the gain at which the first point beyond lambda/2
+ * reaches it (threshold / the largest |w| there, at any time); +infinity when
+ * nothing beyond lambda/2 moves. The focus passes at gain g when
+ * lo <= g < hi; lo >= hi means no gain passes (a failing focus). */
+typedef struct haptic_gain_range {
+    double lo, hi;
+} haptic_gain_range;
+
+/* The one clamp rule for a safe range (hapticd plays it; one home so a tool
+ * can judge exactly what plays): min(max(gain, lo), top), the top
+ * hi (1 - HAPTIC_GAIN_RANGE_TOP_MARGIN) and below hi in any case, so the gain
+ * applied after Q30 rounding (2^-31 at most) stays below hi for every top
+ * above 5e-4 (-66 dB). When lo >= hi (no gain passes) the result is the top:
+ * safety wins, a focus that cannot be felt rather than a ghost. So
+ * haptic_gain_range_clamp(r, 0) is the bottom as played: lo, or the top when
+ * lo >= hi. An infinite hi clamps from below only. Pure, real-time safe. */
+#define HAPTIC_GAIN_RANGE_TOP_MARGIN 1e-6
+double haptic_gain_range_clamp(const haptic_gain_range *r, double gain);
+/* Foci played together (one gain for all): the intersection of their
+ * ranges, the largest lo and the smallest hi, into *acc. */
+void haptic_gain_range_intersect(haptic_gain_range *acc, const haptic_gain_range *r);
+
+/* Writer input for the range section (1.3). */
+typedef struct haptic_range_spec {
+    double threshold_m;              /* the verdict's threshold (m), finite, 0 < t <= 1000 */
+    uint16_t scope;                  /* enum haptic_range_scope */
+    const haptic_gain_range *focus;  /* [focus_count], in the order of the foci */
+} haptic_range_spec;
 
 /* Writer input. The writer computes the Gram matrix and energies itself. */
 typedef struct haptic_table_spec {
@@ -167,6 +211,8 @@ typedef struct haptic_table_spec {
     const double *focus_lead_time_s; /* [focus_count] playback start to focal peak, s */
     /* Panel section (1.2), written when given (NULL: none). */
     const haptic_panel *panel;
+    /* Range section (1.3), written when given (NULL: none). */
+    const haptic_range_spec *range;
 } haptic_table_spec;
 
 /* Human-readable name of a status code (never NULL). */
@@ -200,6 +246,13 @@ double haptic_table_force_full_scale_n(const haptic_table *t);
 int haptic_table_drive_kind(const haptic_table *t);
 /* The panel section (1.2): 0 and *out filled, or -1 when the table has none. */
 int haptic_table_panel(const haptic_table *t, haptic_panel *out);
+/* The range section (1.3): 0 and the focus's safe range in *out, or -1 when
+ * the table has none (or index is out of range). */
+int haptic_table_gain_range(const haptic_table *t, uint32_t index, haptic_gain_range *out);
+/* The range section's threshold (m) and scope (enum haptic_range_scope):
+ * NaN and 0 when the table has none. */
+double haptic_table_range_threshold_m(const haptic_table *t);
+int haptic_table_range_scope(const haptic_table *t);
 /* Playback start to the focal peak of focus `index` (s); NaN if unknown or out of range. */
 double haptic_table_lead_time_s(const haptic_table *t, uint32_t index);
 /* Index of the focus with this id (any u32, 0 and 0xFFFFFFFF included), or -1. */

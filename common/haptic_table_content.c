@@ -1,8 +1,8 @@
 /* haptic_table_content.c - what the reader checks once the header, layout
- * and CRC-32 are good: reserved bytes and gaps, records, the playback
- * section, the Gram matrix, provenance text, and the payload against the
- * Gram matrix. The order of the checks (and so which error a table with
- * several faults gets) is the one docs/table-format.md lists. */
+ * and CRC-32 are good: reserved bytes and gaps, records, the playback, panel
+ * and range sections, the Gram matrix, provenance text, and the payload
+ * against the Gram matrix. The order of the checks (and so which error a
+ * table with several faults gets) is the one docs/table-format.md lists. */
 #include "haptic_table_internal.h"
 
 #include <math.h>
@@ -31,7 +31,8 @@ static int check_reserved(const uint8_t *b, const haptic_table *t, haptic_table_
     if (t->format_minor > HAPTIC_TABLE_VERSION_MINOR)
         return 0;
     const uint32_t known = (t->format_minor >= 1 ? HAPTIC_TABLE_FLAG_PLAYBACK : 0) |
-                           (t->format_minor >= 2 ? HAPTIC_TABLE_FLAG_PANEL : 0);
+                           (t->format_minor >= 2 ? HAPTIC_TABLE_FLAG_PANEL : 0) |
+                           (t->format_minor >= 3 ? HAPTIC_TABLE_FLAG_RANGE : 0);
     if (t->flags & ~FLAGS_REQUIRED_MASK & ~known)
         return fail(err, HAPTIC_TABLE_EFIELD, OFF_FLAGS, "offset %d (flags): optional bits 0x%08lx unknown in version 1.%u",
                     OFF_FLAGS, (unsigned long)(t->flags & ~FLAGS_REQUIRED_MASK & ~known), (unsigned)t->format_minor);
@@ -42,20 +43,23 @@ static int check_reserved(const uint8_t *b, const haptic_table *t, haptic_table_
         return rc;
     if (!t->panel_offset && (rc = zero_bytes(b, OFF_PANEL_OFFSET, OFF_PANEL_OFFSET + 8, "header reserved", err)))
         return rc;
+    if (!t->range_offset && (rc = zero_bytes(b, OFF_RANGE_OFFSET, OFF_RANGE_OFFSET + 8, "header reserved", err)))
+        return rc;
     if ((rc = zero_bytes(b, OFF_HEADER_RESERVED, HAPTIC_TABLE_HEADER_SIZE, "header reserved", err)))
         return rc;
     /* Sections in file order with their sizes; gaps lie between them. */
-    struct { uint64_t off, size; } s[7] = {
+    struct { uint64_t off, size; } s[8] = {
         {t->channels_offset, (uint64_t)t->channel_count * HAPTIC_TABLE_CHANNEL_RECORD_SIZE},
         {t->foci_offset, (uint64_t)t->focus_count * HAPTIC_TABLE_FOCUS_RECORD_SIZE},
         {t->gram_offset, (uint64_t)t->focus_count * t->focus_count * 8},
         {t->provenance_offset, HAPTIC_TABLE_PROVENANCE_SIZE},
         {t->playback_offset, t->playback_offset ? playback_section_size(t->focus_count) : 0},
         {t->panel_offset, t->panel_offset ? HAPTIC_TABLE_PANEL_SIZE : 0},
+        {t->range_offset, t->range_offset ? range_section_size(t->focus_count) : 0},
         {t->payload_offset, 0},
     };
     uint64_t end = HAPTIC_TABLE_HEADER_SIZE;
-    for (int i = 0; i < 7; i++) {
+    for (int i = 0; i < 8; i++) {
         if (s[i].off == 0)
             continue;  /* an absent section */
         if ((rc = zero_bytes(b, end, s[i].off, "gap between sections", err)))
@@ -132,6 +136,42 @@ static int check_panel(const uint8_t *b, const haptic_table *t, haptic_table_err
                     "offset %llu (panel youngs_per_k): %g is outside +-%g per K",
                     (unsigned long long)(off + PANEL_YOUNGS_PER_K), k, HAPTIC_TABLE_PANEL_MAX_YOUNGS_PER_K);
     return zero_bytes(b, off + PANEL_RESERVED, off + HAPTIC_TABLE_PANEL_SIZE, "panel reserved", err);
+}
+
+/* The safe range of each focus (1.3): a threshold, where the verdict looked,
+ * and per focus the gains [lo, hi) over which it passes. lo >= hi is allowed
+ * (a focus that fails at every gain is stated, not hidden); hi is +infinity
+ * when nothing beyond lambda/2 moves. */
+static int check_range(const uint8_t *b, const haptic_table *t, haptic_table_error *err)
+{
+    if (!t->range_offset)
+        return 0;
+    const uint64_t off = t->range_offset;
+    const double threshold = rdf64(b + off + RANGE_THRESHOLD);
+    if (!(isfinite(threshold) && threshold > 0.0 && threshold <= 1e3))
+        return fail(err, HAPTIC_TABLE_EFIELD, off + RANGE_THRESHOLD,
+                    "offset %llu (range threshold_m): %g is not a displacement in (0, 1000] m",
+                    (unsigned long long)(off + RANGE_THRESHOLD), threshold);
+    const uint16_t scope = rd16(b + off + RANGE_SCOPE);
+    if (scope != HAPTIC_RANGE_WHOLE_AREA && scope != HAPTIC_RANGE_FOCI_ONLY)
+        return fail(err, HAPTIC_TABLE_EFIELD, off + RANGE_SCOPE,
+                    "offset %llu (range scope): %u, only 1 (whole area) or 2 (foci only) are known",
+                    (unsigned long long)(off + RANGE_SCOPE), (unsigned)scope);
+    int rc;
+    if ((rc = zero_bytes(b, off + RANGE_RESERVED, off + RANGE_GAINS, "range reserved", err)))
+        return rc;
+    for (uint32_t f = 0; f < t->focus_count; f++) {
+        const uint64_t at = off + RANGE_GAINS + (uint64_t)f * 16;
+        const double lo = rdf64(b + at), hi = rdf64(b + at + 8);
+        if (!(isfinite(lo) && lo > 0.0 && lo <= HAPTIC_TABLE_RANGE_MAX_GAIN))
+            return fail(err, HAPTIC_TABLE_EFIELD, at, "offset %llu (focus %lu gain_lo): %g is not a gain in (0, %g]",
+                        (unsigned long long)at, (unsigned long)f, lo, HAPTIC_TABLE_RANGE_MAX_GAIN);
+        if (!(hi > 0.0 && (hi <= HAPTIC_TABLE_RANGE_MAX_GAIN || hi == INFINITY)))
+            return fail(err, HAPTIC_TABLE_EFIELD, at + 8,
+                        "offset %llu (focus %lu gain_hi): %g is not a gain in (0, %g] or +inf",
+                        (unsigned long long)(at + 8), (unsigned long)f, hi, HAPTIC_TABLE_RANGE_MAX_GAIN);
+    }
+    return 0;
 }
 
 static int check_playback(const uint8_t *b, const haptic_table *t, haptic_table_error *err)
@@ -356,8 +396,8 @@ int haptic_table_check_content_(const uint8_t *b, const haptic_table *t, haptic_
 {
     int rc;
     if ((rc = check_reserved(b, t, err)) || (rc = check_channels(b, t, err)) || (rc = check_foci(b, t, err)) ||
-        (rc = check_playback(b, t, err)) || (rc = check_panel(b, t, err)) || (rc = check_gram(b, t, err)) ||
-        (rc = check_provenance(b, t, err)) || (rc = check_payload(b, t, err)))
+        (rc = check_playback(b, t, err)) || (rc = check_panel(b, t, err)) || (rc = check_range(b, t, err)) ||
+        (rc = check_gram(b, t, err)) || (rc = check_provenance(b, t, err)) || (rc = check_payload(b, t, err)))
         return rc;
     return 0;
 }

@@ -32,7 +32,8 @@ enum {
     OFF_PAYLOAD_SIZE = 88,
     OFF_PLAYBACK_OFFSET = 96,  /* 1.1; reserved (zero) in 1.0 */
     OFF_PANEL_OFFSET = 104,    /* 1.2; reserved (zero) before */
-    OFF_HEADER_RESERVED = 112, /* to 128: zero up to the newest minor this reader knows */
+    OFF_RANGE_OFFSET = 112,    /* 1.3; reserved (zero) before */
+    OFF_HEADER_RESERVED = 120, /* to 128: zero up to the newest minor this reader knows */
 };
 
 /* Focus record field offsets. */
@@ -43,6 +44,8 @@ enum { PROV_SCENE_NAME = 0, PROV_SCENE_HASH = 64, PROV_TOOL_VERSION = 128, PROV_
 enum { PLAY_FORCE = 0, PLAY_DRIVE_KIND = 8, PLAY_RESERVED = 10, PLAY_LEAD_TIMES = 16 };
 /* Panel section (1.2) field offsets; reserved (zero) to HAPTIC_TABLE_PANEL_SIZE. */
 enum { PANEL_TEMPERATURE = 0, PANEL_YOUNGS_PER_K = 8, PANEL_RESERVED = 16 };
+/* Range section (1.3) field offsets; gain_lo, gain_hi follow, two f64 per focus. */
+enum { RANGE_THRESHOLD = 0, RANGE_SCOPE = 8, RANGE_RESERVED = 10, RANGE_GAINS = 16 };
 
 /* Flags: the low 16 bits are "required" (a reader that does not know a set
  * bit must refuse the file), the high 16 bits "optional" (ignored if unknown
@@ -99,14 +102,16 @@ struct layout {
     uint64_t provenance_offset, provenance_size;
     uint64_t playback_offset, playback_size; /* 0, 0 without the section */
     uint64_t panel_offset, panel_size;       /* 0, 0 without the section */
+    uint64_t range_offset, range_size;       /* 0, 0 without the section */
     uint64_t payload_offset, payload_size;
     uint64_t file_size;
 };
 
 static inline uint64_t playback_section_size(uint32_t foci) { return PLAY_LEAD_TIMES + (uint64_t)foci * 8; }
+static inline uint64_t range_section_size(uint32_t foci) { return RANGE_GAINS + (uint64_t)foci * 16; }
 
 static inline void canonical_layout(uint32_t channels, uint32_t foci, uint32_t samples, bool playback, bool panel,
-                                    struct layout *l)
+                                    bool range, struct layout *l)
 {
     l->channels_size = (uint64_t)channels * HAPTIC_TABLE_CHANNEL_RECORD_SIZE;
     l->foci_size = (uint64_t)foci * HAPTIC_TABLE_FOCUS_RECORD_SIZE;
@@ -114,6 +119,7 @@ static inline void canonical_layout(uint32_t channels, uint32_t foci, uint32_t s
     l->provenance_size = HAPTIC_TABLE_PROVENANCE_SIZE;
     l->playback_size = playback ? playback_section_size(foci) : 0;
     l->panel_size = panel ? HAPTIC_TABLE_PANEL_SIZE : 0;
+    l->range_size = range ? range_section_size(foci) : 0;
     l->payload_size = (uint64_t)foci * samples * channels * sizeof(int16_t);
     l->channels_offset = HAPTIC_TABLE_HEADER_SIZE;
     l->foci_offset = align_up(l->channels_offset + l->channels_size, 8);
@@ -126,6 +132,9 @@ static inline void canonical_layout(uint32_t channels, uint32_t foci, uint32_t s
     l->panel_offset = panel ? align_up(end, 8) : 0;
     if (panel)
         end = l->panel_offset + l->panel_size;
+    l->range_offset = range ? align_up(end, 8) : 0;
+    if (range)
+        end = l->range_offset + l->range_size;
     l->payload_offset = align_up(end, HAPTIC_TABLE_PAYLOAD_ALIGN);
     l->file_size = l->payload_offset + l->payload_size + HAPTIC_TABLE_CRC_SIZE;
 }
@@ -140,9 +149,9 @@ __attribute__((format(printf, 4, 5))) int haptic_table_fail_(haptic_table_error 
  * one function (haptic_table_gram.c, built with the vectoriser on). */
 int64_t haptic_table_dot_(const int16_t *a, const int16_t *b, uint64_t n);
 
-/* Meaning checks after the CRC (haptic_table_content.c): records, playback
- * section, Gram matrix, provenance, reserved bytes and gaps, payload against
- * the Gram matrix. `t` holds the validated header and section offsets. */
+/* Meaning checks after the CRC (haptic_table_content.c): records, playback,
+ * panel and range sections, Gram matrix, provenance, reserved bytes and
+ * gaps, payload against the Gram matrix. `t` holds the validated header and section offsets. */
 int haptic_table_check_content_(const uint8_t *b, const haptic_table *t, haptic_table_error *err);
 
 #endif /* HAPTIC_TABLE_INTERNAL_H */

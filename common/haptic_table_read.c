@@ -150,8 +150,9 @@ static int check_layout(const uint8_t *b, uint64_t file_size, uint32_t header_si
 {
     const bool playback = t->format_minor >= 1 && (t->flags & HAPTIC_TABLE_FLAG_PLAYBACK);
     const bool panel = t->format_minor >= 2 && (t->flags & HAPTIC_TABLE_FLAG_PANEL);
+    const bool range = t->format_minor >= 3 && (t->flags & HAPTIC_TABLE_FLAG_RANGE);
     struct layout want;
-    canonical_layout(t->channel_count, t->focus_count, t->samples_per_signal, playback, panel, &want);
+    canonical_layout(t->channel_count, t->focus_count, t->samples_per_signal, playback, panel, range, &want);
     const uint64_t limit = file_size - HAPTIC_TABLE_CRC_SIZE; /* file_size >= 128 here */
     t->channels_offset = rd64(b + OFF_CHANNELS_OFFSET);
     t->foci_offset = rd64(b + OFF_FOCI_OFFSET);
@@ -187,6 +188,13 @@ static int check_layout(const uint8_t *b, uint64_t file_size, uint32_t header_si
                                 limit)))
             return rc;
         end = t->panel_offset + want.panel_size;
+    }
+    if (range) {
+        t->range_offset = rd64(b + OFF_RANGE_OFFSET);
+        if ((rc = check_section(err, OFF_RANGE_OFFSET, "range_offset", t->range_offset, want.range_size, end, 8,
+                                limit)))
+            return rc;
+        end = t->range_offset + want.range_size;
     }
     if ((rc = check_section(err, OFF_PAYLOAD_OFFSET, "payload_offset", t->payload_offset, want.payload_size, end,
                             HAPTIC_TABLE_PAYLOAD_ALIGN, limit)))
@@ -346,6 +354,26 @@ int haptic_table_panel(const haptic_table *t, haptic_panel *out)
     out->temperature_c = rdf64(t->data + t->panel_offset + PANEL_TEMPERATURE);
     out->youngs_per_k = rdf64(t->data + t->panel_offset + PANEL_YOUNGS_PER_K);
     return 0;
+}
+
+int haptic_table_gain_range(const haptic_table *t, uint32_t index, haptic_gain_range *out)
+{
+    if (!t || !t->data || !out || !t->range_offset || index >= t->focus_count)
+        return -1;
+    const uint8_t *r = t->data + t->range_offset + RANGE_GAINS + (uint64_t)index * 16;
+    out->lo = rdf64(r);
+    out->hi = rdf64(r + 8);
+    return 0;
+}
+
+double haptic_table_range_threshold_m(const haptic_table *t)
+{
+    return t && t->data && t->range_offset ? rdf64(t->data + t->range_offset + RANGE_THRESHOLD) : NAN;
+}
+
+int haptic_table_range_scope(const haptic_table *t)
+{
+    return t && t->data && t->range_offset ? rd16(t->data + t->range_offset + RANGE_SCOPE) : 0;
 }
 
 double haptic_table_lead_time_s(const haptic_table *t, uint32_t index)

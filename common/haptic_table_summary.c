@@ -35,6 +35,14 @@ int haptic_table_print_summary(const haptic_table *t, const char *path, FILE *ou
                      "temperature)\n", panel.temperature_c, 100 * panel.youngs_per_k);
     else
         fprintf(out, "panel        unknown (no panel section: no temperature compensation from this table)\n");
+    const double threshold = haptic_table_range_threshold_m(t);
+    if (isnan(threshold))
+        fprintf(out, "range        unknown (no range section: hapticd plays any level unclamped)\n");
+    else
+        fprintf(out, "range        threshold %.3g um over %s; per focus 'safe': the gains it passes at (dB, 0 = as "
+                     "stored)\n", 1e6 * threshold,
+                haptic_table_range_scope(t) == HAPTIC_RANGE_WHOLE_AREA ? "the whole active area (scope 1)"
+                                                                       : "the other foci only (scope 2)");
     for (uint32_t c = 0; c < t->channel_count; c++) {
         double x, y;
         haptic_table_channel_position(t, c, &x, &y);
@@ -51,8 +59,18 @@ int haptic_table_print_summary(const haptic_table *t, const char *path, FILE *ou
             lead_min = fmin(lead_min, fi.lead_time_s);
             lead_max = fmax(lead_max, fi.lead_time_s);
         }
-        fprintf(out, "focus id %-4lu (%8.1f, %8.1f) mm  as stored -> %.3g um  rms %.3f FS  %s\n", (unsigned long)fi.id,
-                1e3 * fi.x_m, 1e3 * fi.y_m, 1e6 * fi.scale_m, rms, lead);
+        char safe[64] = "";
+        haptic_gain_range r;
+        if (haptic_table_gain_range(t, f, &r) == 0) {
+            if (!(r.lo < r.hi))
+                snprintf(safe, sizeof safe, "  safe none: fails at every gain");
+            else if (isinf(r.hi))
+                snprintf(safe, sizeof safe, "  safe %+.1f dB..unbounded", 20 * log10(r.lo));
+            else
+                snprintf(safe, sizeof safe, "  safe %+.1f..%+.1f dB", 20 * log10(r.lo), 20 * log10(r.hi));
+        }
+        fprintf(out, "focus id %-4lu (%8.1f, %8.1f) mm  as stored -> %.3g um  rms %.3f FS  %s%s\n",
+                (unsigned long)fi.id, 1e3 * fi.x_m, 1e3 * fi.y_m, 1e6 * fi.scale_m, rms, lead, safe);
     }
     if (lead_min <= lead_max)
         fprintf(out, "lead time    %.1f..%.1f ms from playback start to the focal peak (add the input and audio "

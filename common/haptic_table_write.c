@@ -33,9 +33,11 @@ static int spec_check(const haptic_table_spec *s, haptic_table_error *err)
                     (unsigned long)s->samples_per_signal, HAPTIC_TABLE_MAX_SAMPLES);
     if (s->drive_kind != HAPTIC_DRIVE_UNKNOWN && !s->focus_lead_time_s)
         return fail(err, HAPTIC_TABLE_EINVAL, 0, "table spec has a drive kind but no lead times");
+    if (s->range && !s->range->focus)
+        return fail(err, HAPTIC_TABLE_EINVAL, 0, "table spec has a range section but no per-focus ranges");
     struct layout l;
     canonical_layout(s->channel_count, s->focus_count, s->samples_per_signal, s->drive_kind != HAPTIC_DRIVE_UNKNOWN,
-                     s->panel != NULL, &l);
+                     s->panel != NULL, s->range != NULL, &l);
     if (l.file_size > HAPTIC_TABLE_MAX_FILE_SIZE)
         return fail(err, HAPTIC_TABLE_ETOOBIG, 0, "table of %llu bytes exceeds the %llu byte limit",
                     (unsigned long long)l.file_size, (unsigned long long)HAPTIC_TABLE_MAX_FILE_SIZE);
@@ -60,7 +62,7 @@ uint64_t haptic_table_encoded_size(const haptic_table_spec *spec)
         return 0;
     struct layout l;
     canonical_layout(spec->channel_count, spec->focus_count, spec->samples_per_signal,
-                     spec->drive_kind != HAPTIC_DRIVE_UNKNOWN, spec->panel != NULL, &l);
+                     spec->drive_kind != HAPTIC_DRIVE_UNKNOWN, spec->panel != NULL, spec->range != NULL, &l);
     return l.file_size;
 }
 
@@ -71,7 +73,8 @@ int haptic_table_encode(const haptic_table_spec *s, void *buf, size_t size, hapt
         return rc;
     const bool playback = s->drive_kind != HAPTIC_DRIVE_UNKNOWN;
     struct layout l;
-    canonical_layout(s->channel_count, s->focus_count, s->samples_per_signal, playback, s->panel != NULL, &l);
+    canonical_layout(s->channel_count, s->focus_count, s->samples_per_signal, playback, s->panel != NULL,
+                     s->range != NULL, &l);
     if (!buf || size < l.file_size)
         return fail(err, HAPTIC_TABLE_EINVAL, 0, "output buffer of %zu bytes, need %llu", size,
                     (unsigned long long)l.file_size);
@@ -81,7 +84,8 @@ int haptic_table_encode(const haptic_table_spec *s, void *buf, size_t size, hapt
     wr16(b + OFF_VERSION_MAJOR, HAPTIC_TABLE_VERSION_MAJOR);
     wr16(b + OFF_VERSION_MINOR, HAPTIC_TABLE_VERSION_MINOR);
     wr32(b + OFF_HEADER_SIZE, HAPTIC_TABLE_HEADER_SIZE);
-    wr32(b + OFF_FLAGS, (playback ? HAPTIC_TABLE_FLAG_PLAYBACK : 0) | (s->panel ? HAPTIC_TABLE_FLAG_PANEL : 0));
+    wr32(b + OFF_FLAGS, (playback ? HAPTIC_TABLE_FLAG_PLAYBACK : 0) | (s->panel ? HAPTIC_TABLE_FLAG_PANEL : 0) |
+                            (s->range ? HAPTIC_TABLE_FLAG_RANGE : 0));
     wr32(b + OFF_SAMPLE_RATE, s->sample_rate_hz);
     wr16(b + OFF_CHANNEL_COUNT, s->channel_count);
     wr16(b + OFF_SAMPLE_FORMAT, HAPTIC_SAMPLE_S16LE);
@@ -96,6 +100,7 @@ int haptic_table_encode(const haptic_table_spec *s, void *buf, size_t size, hapt
     wr64(b + OFF_PAYLOAD_SIZE, l.payload_size);
     wr64(b + OFF_PLAYBACK_OFFSET, l.playback_offset);
     wr64(b + OFF_PANEL_OFFSET, l.panel_offset);
+    wr64(b + OFF_RANGE_OFFSET, l.range_offset);
 
     for (uint32_t c = 0; c < s->channel_count; c++) {
         uint8_t *r = b + l.channels_offset + (uint64_t)c * HAPTIC_TABLE_CHANNEL_RECORD_SIZE;
@@ -133,6 +138,15 @@ int haptic_table_encode(const haptic_table_spec *s, void *buf, size_t size, hapt
         wrf64(b + l.panel_offset + PANEL_TEMPERATURE, s->panel->temperature_c);
         wrf64(b + l.panel_offset + PANEL_YOUNGS_PER_K, s->panel->youngs_per_k);
     }
+    if (s->range) {
+        uint8_t *p = b + l.range_offset;
+        wrf64(p + RANGE_THRESHOLD, s->range->threshold_m);
+        wr16(p + RANGE_SCOPE, s->range->scope);
+        for (uint32_t f = 0; f < s->focus_count; f++) {
+            wrf64(p + RANGE_GAINS + (uint64_t)f * 16, s->range->focus[f].lo);
+            wrf64(p + RANGE_GAINS + (uint64_t)f * 16 + 8, s->range->focus[f].hi);
+        }
+    }
     const char *texts[] = {s->scene_name, s->scene_hash, s->tool_version, s->created_utc};
     const unsigned offs[] = {PROV_SCENE_NAME, PROV_SCENE_HASH, PROV_TOOL_VERSION, PROV_CREATED};
     for (int i = 0; i < 4; i++)
@@ -144,7 +158,8 @@ int haptic_table_encode(const haptic_table_spec *s, void *buf, size_t size, hapt
 
     /* The writer refuses to produce what the reader would refuse (e.g. an
      * all-zero focus signal, a non-finite position, a repeated id, a lead
-     * time outside the signal, text that is not UTF-8). */
+     * time outside the signal, a NaN or negative safe gain, text that is not
+     * UTF-8). */
     haptic_table check;
     return haptic_table_validate(b, l.file_size, &check, err);
 }

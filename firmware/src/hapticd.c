@@ -302,11 +302,13 @@ static void log_lib_messages(struct daemon *d)
 
 /* The user's intensity (control.h): a new level is handed to the player
  * for the voices to come; a bad or missing file keeps the level, said once
- * until the file is good again. */
-static void poll_control(struct daemon *d)
+ * until the file is good again. With a table that gives the foci's safe
+ * ranges (format 1.3), what their clamp does at the new level is said in
+ * the same breath (hd_program_range_note). 1: a new level was taken. */
+static int poll_control(struct daemon *d)
 {
     if (!d->control.path[0])
-        return;
+        return 0;
     char err[HD_ERR_MAX];
     double db;
     int rc = hd_control_poll(&d->control, &db, err);
@@ -315,18 +317,23 @@ static void poll_control(struct daemon *d)
             hd_log(LOG_WARNING, "intensity: %s: the level stays %+.1f dB", err,
                    20 * log10(hd_player_level(&d->engine.player)));
         d->control_failing = 1;
-        return;
+        return 0;
     }
     if (rc == 0)
-        return;
+        return 0;
     d->control_failing = 0;
     const double level = pow(10.0, db / 20.0);
     hd_player_set_level(&d->engine.player, level);
+    char note[HD_ERR_MAX];
+    const int clamped = hd_program_range_note(d->tables.latest, level, note, sizeof note) > 0;
     if (level > d->board.gain_limit)
         hd_log(LOG_INFO, "intensity %+.1f dB: above [mixer] gain_limit (%+.1f dB), voices play at most at it", db,
                20 * log10(d->board.gain_limit));
-    else
+    else if (!clamped)
         hd_log(LOG_INFO, "intensity %+.1f dB", db);
+    if (clamped)
+        hd_log(LOG_INFO, "%s", note);
+    return 1;
 }
 
 static int run_live(struct daemon *d)
@@ -501,6 +508,7 @@ int main(int argc, char **argv)
         /* Unpaced and short: a signal ends it as it always did. */
         sigprocmask(SIG_UNBLOCK, &early, NULL);
         chain_for(&d, d.engine.current, 0);
+        hd_table_policy_log_range(&d.tables, hd_player_level(&d.engine.player));
         status = hd_audio_loop_script(&d.player, &script, d.opt.tail_frames,
                                       d.opt.alsa_device ? d.opt.alsa_device : d.board.alsa_device);
         hd_audio_close(&d.audio, 1);
@@ -557,7 +565,8 @@ int main(int argc, char **argv)
     if (d.board.mlock)
         hd_rt_lock_memory();
     snprintf(d.control.path, sizeof d.control.path, "%s", d.board.intensity_file);
-    poll_control(&d); /* the level before the first touch */
+    if (!poll_control(&d)) /* the level before the first touch; said with the range's clamp when read */
+        hd_table_policy_log_range(&d.tables, hd_player_level(&d.engine.player));
     status = run_live(&d);
     hd_audio_close(&d.audio, !d.opt.drop);
 out_gpio:

@@ -27,6 +27,12 @@ static double gram_of(const void *ctx, uint32_t i, uint32_t j)
 
 int hd_mixer_gain(const struct hd_program *p, double level, double gain_limit, struct hd_mix *m)
 {
+    return hd_mixer_gain_in_range(p, level, NULL, gain_limit, m);
+}
+
+int hd_mixer_gain_in_range(const struct hd_program *p, double level, const haptic_gain_range *range,
+                           double gain_limit, struct hd_mix *m)
+{
     if (m->count == 0 || m->count > HD_MAX_VOICE_FOCI)
         return -EINVAL;
     const uint16_t *envelopes[HD_MAX_VOICE_FOCI];
@@ -37,9 +43,13 @@ int hd_mixer_gain(const struct hd_program *p, double level, double gain_limit, s
         envelopes[k] = p->block_peak + m->index[k] * per_focus;
     }
     const struct gram_ctx ctx = {p, m->index};
+    const uint32_t peak_bound = haptic_mix_peak_bound(envelopes, m->count, p->blocks, p->channel_count);
     haptic_mix_gain g;
-    haptic_mix_gain_of(gram_of, &ctx, m->count, haptic_mix_peak_bound(envelopes, m->count, p->blocks, p->channel_count),
-                       level, gain_limit, &g);
+    haptic_mix_gain_of(gram_of, &ctx, m->count, peak_bound, level, gain_limit, &g);
+    /* g_energy 0: the foci cancel, the mix is silent at any gain. */
+    if (range && g.energy > 0.0)
+        haptic_mix_gain_of(gram_of, &ctx, m->count, peak_bound,
+                           haptic_gain_range_clamp(range, level * g.energy) / g.energy, gain_limit, &g);
     m->gain_energy = g.energy;
     m->gain_peak = g.peak;
     m->gain = g.gain;

@@ -112,8 +112,10 @@ static void add_root(const struct hd_player *pl, const struct hd_program *p, con
 
 /* The coils' heat admits the voice at its gain, lowers it, or skips it
  * (0): the heat measured so far, and the energy still to come from the
- * voices playing and this one (protect.h). */
-static int admit(struct hd_player *pl, const struct hd_program *p, struct hd_mix *m)
+ * voices playing and this one (protect.h). Lowered below `min_gain` (the
+ * bottom of the voice's safe range: its foci would not be felt), it is
+ * skipped. */
+static int admit(struct hd_player *pl, const struct hd_program *p, struct hd_mix *m, double min_gain)
 {
     double playing[HD_MAX_CHANNELS] = {0}, fresh[HD_MAX_CHANNELS] = {0};
     for (unsigned i = 0; i < HD_MAX_VOICES; i++) {
@@ -122,7 +124,7 @@ static int admit(struct hd_player *pl, const struct hd_program *p, struct hd_mix
             add_root(pl, v->program, &v->mix, v->mix.gain, playing);
     }
     add_root(pl, p, m, 1.0, fresh);
-    const double g = hd_protect_admit(&pl->protect, device_ns(pl, pl->frame), playing, fresh, m->gain, 0.0);
+    const double g = hd_protect_admit(&pl->protect, device_ns(pl, pl->frame), playing, fresh, m->gain, min_gain);
     if (g <= 0.0)
         return 0;
     if (g < m->gain) {
@@ -163,9 +165,14 @@ int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint
         m.count = pl->max_foci;
         pl->stats.policy_foci += drop;
     }
-    if (m.count == 0 || hd_mixer_gain(p, hd_player_level(pl), pl->gain_limit, &m) != 0)
+    /* A table with safe ranges (1.3): the voice's gain is clamped into the
+     * intersection of its foci's, and that range's bottom is the floor the
+     * exciters' protection may not lower it below. */
+    haptic_gain_range range;
+    const int ranged = hd_program_voice_range(p, m.index, m.count, &range);
+    if (m.count == 0 || hd_mixer_gain_in_range(p, hd_player_level(pl), ranged ? &range : NULL, pl->gain_limit, &m))
         return 0;
-    if (pl->protected && !admit(pl, p, &m))
+    if (pl->protected && !admit(pl, p, &m, ranged ? haptic_gain_range_clamp(&range, 0.0) : 0.0))
         return 0;
     hd_player_start_mix(pl, p, &m);
     return 1;

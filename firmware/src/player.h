@@ -69,11 +69,14 @@ double hd_player_level(const struct hd_player *pl);
 void hd_player_free(struct hd_player *pl);
 
 /* Start one voice playing the union of the given focus ids (resolved in p;
- * unknown ids are skipped and counted). On a board with [exciters] ratings
- * the voice is admitted by the coils' heat (protect.h; the device timeline's
- * frame is the clock): played at its gain, lowered, or skipped. Returns 1 if
- * a voice started, 0 if nothing was playable or protection skipped it.
- * Real-time safe. */
+ * unknown ids are skipped and counted). With a table that gives each focus's
+ * safe range (format 1.3) the user's level is clamped into the intersection
+ * of the voice's foci's ranges (hd_mixer_gain_in_range). On a board with
+ * [exciters] ratings the voice is admitted by the coils' heat (protect.h;
+ * the device timeline's frame is the clock): played at its gain, lowered,
+ * or skipped, and skipped rather than lowered below the bottom of its safe
+ * range. Returns 1 if a voice started, 0 if nothing was playable or
+ * protection skipped it. Real-time safe. */
 int hd_player_start(struct hd_player *pl, const struct hd_program *p, const uint32_t *ids, uint32_t count);
 
 /* Start a voice from a precomputed mix (tests, benchmarks). */

@@ -96,6 +96,13 @@ int hd_program_from_table(const haptic_table *t, const struct hd_board *b, struc
     p->by_id = calloc(p->focus_count, sizeof *p->by_id);
     if (!p->by_id || compute_block_peaks(p) != 0)
         goto nomem;
+    if (t->range_offset) { /* copied once: the real-time path reads an array, not the file's bytes */
+        p->range = calloc(p->focus_count, sizeof *p->range);
+        if (!p->range)
+            goto nomem;
+        for (uint32_t f = 0; f < p->focus_count; f++)
+            haptic_table_gain_range(t, f, &p->range[f]);
+    }
     for (uint32_t f = 0; f < p->focus_count; f++) {
         haptic_focus_info info;
         haptic_table_focus(t, f, &info);
@@ -224,6 +231,7 @@ void hd_program_free(struct hd_program *p)
     free(p->by_id);
     free(p->block_peak);
     free(p->root_energy);
+    free(p->range);
     free(p->stretched);
     free(p->gram);
     free(p);
@@ -242,4 +250,65 @@ double hd_program_lead_time_s(const struct hd_program *p)
             lead = s;
     }
     return lead / p->speed_ratio;
+}
+
+int hd_program_voice_range(const struct hd_program *p, const uint32_t *index, uint32_t count,
+                           haptic_gain_range *out)
+{
+    if (!p->range || count == 0)
+        return 0;
+    *out = p->range[index[0]];
+    for (uint32_t k = 1; k < count; k++)
+        haptic_gain_range_intersect(out, &p->range[index[k]]);
+    return 1;
+}
+
+/* The foci the clamp moves one way: how many, and the dB span of where they play. */
+struct moved {
+    uint32_t count;
+    double min_db, max_db;
+};
+
+static void moved_add(struct moved *m, double gain)
+{
+    const double db = 20 * log10(gain);
+    if (m->count == 0 || db < m->min_db)
+        m->min_db = db;
+    if (m->count == 0 || db > m->max_db)
+        m->max_db = db;
+    m->count++;
+}
+
+int hd_program_range_note(const struct hd_program *p, double level, char *out, size_t cap)
+{
+    if (cap)
+        out[0] = '\0';
+    if (!p->range || cap == 0)
+        return 0;
+    struct moved above = {0}, below = {0}, failing = {0};
+    for (uint32_t f = 0; f < p->focus_count; f++) {
+        const haptic_gain_range *r = &p->range[f];
+        const double g = haptic_gain_range_clamp(r, level);
+        if (!(r->lo < r->hi))
+            moved_add(&failing, g);
+        else if (g < level)
+            moved_add(&above, g);
+        else if (g > level)
+            moved_add(&below, g);
+    }
+    const unsigned k = p->focus_count;
+    char a[160] = "", b[160] = "", c[160] = "";
+    if (above.count)
+        snprintf(a, sizeof a, " above the safe range of %u of %u foci (tops %+.1f..%+.1f dB): they play at their tops",
+                 (unsigned)above.count, k, above.min_db, above.max_db);
+    if (below.count)
+        snprintf(b, sizeof b, "%s below the safe range of %u of %u foci (bottoms %+.1f..%+.1f dB): they play at their "
+                 "bottoms", a[0] ? ";" : "", (unsigned)below.count, k, below.min_db, below.max_db);
+    if (failing.count)
+        snprintf(c, sizeof c, "%s %u of %u foci pass at no gain (tops %+.1f..%+.1f dB): they play at their tops",
+                 a[0] || b[0] ? ";" : "", (unsigned)failing.count, k, failing.min_db, failing.max_db);
+    const uint32_t moved = above.count + below.count + failing.count;
+    if (moved)
+        snprintf(out, cap, "intensity %+.1f dB:%s%s%s", 20 * log10(level), a, b, c);
+    return (int)moved;
 }

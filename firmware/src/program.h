@@ -1,8 +1,9 @@
 /* program.h - a loaded table plus what the real-time path needs from it,
  * precomputed once at load (never on the real-time path): the focus id ->
- * index lookup, the block-peak envelope used by the peak limit, and, on a
- * panel faster or slower than the calibrated plate, the drives stretched by
- * the speed ratio (panel.h) with their own Gram matrix. */
+ * index lookup, the block-peak envelope used by the peak limit, each focus's
+ * safe gain range (format 1.3), and, on a panel faster or slower than the
+ * calibrated plate, the drives stretched by the speed ratio (panel.h) with
+ * their own Gram matrix. */
 #ifndef HD_PROGRAM_H
 #define HD_PROGRAM_H
 
@@ -11,6 +12,7 @@
 
 #include <haptic_mix.h>
 #include <haptic_table.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #define HD_PEAK_BLOCK HAPTIC_MIX_PEAK_BLOCK /* frames per block of the peak envelope (haptic_mix.h) */
@@ -27,6 +29,8 @@ struct hd_program {
     uint32_t blocks;             /* ceil(samples / HD_PEAK_BLOCK) */
     uint16_t *block_peak;        /* [focus][block][channel]: max |s| in that block (<= 32768) */
     double *root_energy;         /* [focus][channel]: sqrt(sum_n s[n][c]^2), the exciters' heat (protect.h) */
+    haptic_gain_range *range;    /* [focus]: the gains it passes the verdict at (1.3); NULL: the table has none.
+                                    A stretch keeps them: they hold for the drives as the plate receives them */
     double speed_ratio;          /* the drives play this many times as fast as stored (1: as stored) */
     int16_t *stretched;          /* [focus][n][c], `samples` frames; NULL at speed ratio 1 */
     double *gram;                /* [focus][focus] of `stretched`; NULL at speed ratio 1 */
@@ -65,6 +69,21 @@ void hd_program_free(struct hd_program *p);
  * peak (the end of the kept time-reversal window), the largest over the
  * table's foci, over the speed ratio; NAN when the table does not say. */
 double hd_program_lead_time_s(const struct hd_program *p);
+
+/* The safe range of the foci index[0..count) played together, the
+ * intersection of theirs (haptic_gain_range_intersect): 1 and *out, or 0
+ * when the table has none (the gain is then not clamped). Real-time safe. */
+int hd_program_voice_range(const struct hd_program *p, const uint32_t *index, uint32_t count,
+                           haptic_gain_range *out);
+
+/* What the clamp does to the foci played alone at the user's `level`
+ * (linear; alone, a focus's gain is the level: haptic_mix.h), in one line
+ * for the log: "intensity +8.0 dB: above the safe range of 5 of 9 foci (tops
+ * -1.2..+6.3 dB): they play at their tops", the foci below likewise, the
+ * foci that fail at every gain named apart. The number of foci the clamp
+ * moves, 0 (and an empty line) when every focus is inside its range or the
+ * table has no range section. Main thread. */
+int hd_program_range_note(const struct hd_program *p, double level, char *out, size_t cap);
 
 /* Index of the focus with this id, or -1 (binary search, real-time safe). */
 int32_t hd_program_find(const struct hd_program *p, uint32_t id);

@@ -23,7 +23,8 @@
  * time whatever the voices' phases, since every later weight is at most 1.
  * When the voice's gain would break it, it is lowered to the largest gain
  * that keeps it; below `min_gain` (the caller's floor: a voice that cannot
- * be felt is not worth the heat), or below HD_PROTECT_SKIP_BELOW of the gain
+ * be felt is not worth the heat; the player's is the bottom of the voice's
+ * safe range, format 1.3), or below HD_PROTECT_SKIP_BELOW of the gain
  * asked (-60 dB: nothing left to play), the voice is skipped. Both counted.
  *
  * Pure and real-time safe: no allocation, no lock, no I/O. Times are the

@@ -75,6 +75,13 @@ static int hand_over(struct hd_table_policy *tp, struct hd_program *p, double ce
     return 0;
 }
 
+void hd_table_policy_log_range(const struct hd_table_policy *tp, double level)
+{
+    char note[HD_ERR_MAX];
+    if (tp->latest && hd_program_range_note(tp->latest, level, note, sizeof note) > 0)
+        hd_log(LOG_INFO, "%s", note);
+}
+
 int hd_table_policy_open(struct hd_table_policy *tp, const struct hd_board *b, const char *path, double now_s,
                          struct hd_program **first, char err[HD_ERR_MAX])
 {
@@ -118,7 +125,10 @@ int hd_table_policy_reload(struct hd_table_policy *tp)
         hd_log(LOG_ERR, "reload refused, the current table keeps playing: %s", err);
         return rc;
     }
-    return hand_over(tp, p, tp->celsius, "reloaded");
+    /* A new file may bring other ranges; a re-stretch keeps them, so it does not say them again. */
+    if ((rc = hand_over(tp, p, tp->celsius, "reloaded")) == 0)
+        hd_table_policy_log_range(tp, hd_player_level(&tp->engine->player));
+    return rc;
 }
 
 /* A temperature step: the table playing now (not the file, which SIGHUP

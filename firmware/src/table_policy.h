@@ -20,7 +20,9 @@
  * Each new table goes to the audio thread through hd_engine_offer (waiting,
  * a signal length at most, for the one before to be taken over), then to the
  * `handed_over` hook: what else follows the table (the daemon's touchscreen
- * foci and touch -> focal peak chain). */
+ * foci and touch -> focal peak chain). After a reload, what the new
+ * table's safe ranges (format 1.3) do at the user's current level is logged
+ * in one line (a re-stretch keeps the ranges: not said again). */
 #ifndef HD_TABLE_POLICY_H
 #define HD_TABLE_POLICY_H
 
@@ -55,6 +57,10 @@ int hd_table_policy_open(struct hd_table_policy *tp, const struct hd_board *b, c
  * later hand-over (NULL: none). Before the first reload or poll. */
 void hd_table_policy_attach(struct hd_table_policy *tp, struct hd_engine *e,
                             void (*handed_over)(void *ctx, const struct hd_program *p), void *ctx);
+
+/* Logs what the clamp into the safe ranges of the latest table does at
+ * `level` (hd_program_range_note), nothing when it does nothing. */
+void hd_table_policy_log_range(const struct hd_table_policy *tp, double level);
 
 /* SIGHUP. 0: the file, stretched for the current temperature, was handed
  * over; otherwise refused (logged), the current table keeps playing. */

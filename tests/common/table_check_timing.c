@@ -81,7 +81,7 @@ int main(int argc, char **argv)
         for (int c = 0; c < 2 * C; c++)
             cxy[c] = 0.01 * c;
         haptic_table_spec spec = {48000, C, K, N, cxy, ids, fxy, scale, s, "timing", NULL, NULL, NULL,
-                                  HAPTIC_DRIVE_FORCE, 1.0, lead, NULL};
+                                  HAPTIC_DRIVE_FORCE, 1.0, lead, NULL, NULL};
         uint64_t size = haptic_table_encoded_size(&spec);
         uint8_t *b = malloc(size);
         haptic_table_error err;

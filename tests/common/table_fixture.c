@@ -1,5 +1,6 @@
 #include "table_fixture.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <zlib.h>
@@ -26,7 +27,12 @@ void table_fixture_init(table_fixture *fx, uint16_t channels, uint32_t foci, uin
         fx->focus_xy[2 * f + 1] = 0.2 + 0.01 * f;
         fx->scale[f] = 1e-5 * (f + 1);
         fx->lead_s[f] = (f % 4 + 1) * 0.25 * samples / 48000.0;
+        fx->gain_range[f].lo = 0.5 / (f + 1);
+        fx->gain_range[f].hi = f + 1 == foci ? INFINITY : 2.0 * (f + 1);
     }
+    fx->range.threshold_m = 1e-6;
+    fx->range.scope = HAPTIC_RANGE_WHOLE_AREA;
+    fx->range.focus = fx->gain_range;
     haptic_table_spec *sp = &fx->spec;
     sp->sample_rate_hz = 48000;
     sp->channel_count = channels;

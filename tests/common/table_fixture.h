@@ -12,15 +12,20 @@ typedef struct table_fixture {
     double scale[64];
     double lead_s[64];
     haptic_panel panel;
+    haptic_gain_range gain_range[64];
+    haptic_range_spec range;
     int16_t *samples;
 } table_fixture;
 
 /* Deterministic signals (a 32-bit LCG) with the extremes -32768 and 32767
- * present; focus ids 10, 20, 30, ... ; foci <= 64. A 1.2 table with the
+ * present; focus ids 10, 20, 30, ... ; foci <= 64. A 1.3 table with the
  * playback section: exciter drive, 2.5 N at full scale, focus f's lead time
  * (f mod 4 + 1) / 4 of the signal; and the panel section: calibrated at
  * 23 C, dE/E/dT -0.4 %/K. Set spec.drive_kind = HAPTIC_DRIVE_UNKNOWN or
- * spec.panel = NULL to leave a section out. */
+ * spec.panel = NULL to leave a section out. The range section is filled in
+ * `range` but left out: spec.range = &fx->range adds it (threshold 1 um,
+ * whole area; focus f safe from 0.5 / (f + 1) to 2 (f + 1), the last focus
+ * to +infinity). */
 void table_fixture_init(table_fixture *fx, uint16_t channels, uint32_t foci, uint32_t samples, uint32_t seed);
 void table_fixture_free(table_fixture *fx);
 /* Encode into a new malloc'ed buffer; returns its size (0 on failure). */

@@ -1,6 +1,6 @@
 /* Table format: round trip, the documented byte layout, the Gram matrix
- * against a brute-force recomputation, the atomic writer, and the API's
- * argument checks. */
+ * against a brute-force recomputation, the atomic writer, the API's
+ * argument checks, and the clamp rule of a focus's safe range. */
 #define _POSIX_C_SOURCE 200809L
 #include <setjmp.h>
 #include <stdarg.h>
@@ -148,7 +148,7 @@ static void header_follows_the_documented_layout(void **state)
     /* Offsets and sizes as docs/table-format.md states them. */
     assert_memory_equal(b, "HAPTBL\r\n", 8);
     assert_int_equal(b[8] | b[9] << 8, 1);
-    assert_int_equal(b[10] | b[11] << 8, 2);
+    assert_int_equal(b[10] | b[11] << 8, 3);
     assert_int_equal(le32(b + 12), 128);
     assert_int_equal(le32(b + 20), 48000);
     assert_int_equal(b[24] | b[25] << 8, 8);
@@ -175,7 +175,7 @@ static void header_follows_the_documented_layout(void **state)
     assert_true(temp == 23.0 && coef == -0.004);
     for (int k = 16; k < 32; k++)
         assert_int_equal(b[pn + k], 0);
-    for (int k = 112; k < 128; k++)
+    for (int k = 112; k < 128; k++) /* no range section (1.3): its offset and the reserved bytes are 0 */
         assert_int_equal(b[k], 0);
     assert_int_equal(pl % 64, 0);
     assert_true(pl >= pn + 32 && pl < pn + 32 + 64);
@@ -417,6 +417,42 @@ static void panel_section_round_trips_and_is_optional(void **state)
     table_fixture_free(&fx);
 }
 
+/* The clamp rule of a safe range (haptic_table.h), by hand: min(max(g, lo),
+ * top), top = hi (1 - 1e-6) = 1.999998 for hi = 2; lo >= hi gives the top;
+ * clamp(r, 0) is the bottom; an infinite hi bounds nothing above. */
+static void gain_range_clamp_rule(void **state)
+{
+    (void)state;
+    const haptic_gain_range r = {0.5, 2.0}, open = {0.5, INFINITY}, failing = {3.0, 2.0}, same = {2.0, 2.0};
+    const double top = 2.0 * (1.0 - 1e-6);
+    assert_true(top == 1.999998 && top < 2.0);
+    struct { const haptic_gain_range *r; double g, want; } cases[] = {
+        {&r, 1.0, 1.0},       {&r, 0.5, 0.5},       {&r, 0.1, 0.5},         {&r, 0.0, 0.5},
+        {&r, top, top},       {&r, 1.9999985, top}, {&r, 2.0, top},         {&r, 3.0, top},
+        {&r, NAN, 0.5},       {&open, 1e9, 1e9},    {&open, 0.1, 0.5},      {&failing, 0.0, top},
+        {&failing, 2.5, top}, {&failing, 9.0, top}, {&same, 2.0, top},      {&same, 0.0, top},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        const double got = haptic_gain_range_clamp(cases[i].r, cases[i].g);
+        if (got != cases[i].want)
+            fail_msg("case %zu: clamp([%g, %g), %g) = %.17g, want %.17g", i, cases[i].r->lo, cases[i].r->hi,
+                     cases[i].g, got, cases[i].want);
+    }
+    /* A hi so small that the margin rounds away: still strictly below it. */
+    const haptic_gain_range tiny = {4.9406564584124654e-324, 4.9406564584124654e-324};
+    assert_true(haptic_gain_range_clamp(&tiny, 1.0) < tiny.hi);
+    /* Foci together: the largest lo, the smallest hi. */
+    haptic_gain_range acc = r;
+    const haptic_gain_range b = {0.25, 1.5}, c = {1.0, INFINITY};
+    haptic_gain_range_intersect(&acc, &b);
+    assert_true(acc.lo == 0.5 && acc.hi == 1.5);
+    haptic_gain_range_intersect(&acc, &c);
+    assert_true(acc.lo == 1.0 && acc.hi == 1.5);
+    haptic_gain_range_intersect(&acc, &failing);
+    assert_true(acc.lo == 3.0 && acc.hi == 1.5);
+    assert_true(haptic_gain_range_clamp(&acc, 1.2) == 1.5 * (1.0 - 1e-6)); /* disjoint: the top */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -431,6 +467,7 @@ int main(void)
         cmocka_unit_test(writer_refuses_bad_specs),
         cmocka_unit_test(accessors_check_their_indices),
         cmocka_unit_test(panel_section_round_trips_and_is_optional),
+        cmocka_unit_test(gain_range_clamp_rule),
     };
     return cmocka_run_group_tests(tests, make_tmpdir, remove_tmpdir);
 }

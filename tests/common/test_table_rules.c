@@ -1,8 +1,8 @@
 /* The rules of docs/table-format.md that a reader written from the document
  * alone must apply exactly as common/ does, each with a hand-computed vector:
  * the Gram matrix against the payload, reserved bytes and gaps, provenance
- * text, focus ids, the sample -32768, the 1.1 playback section, a 1.0 table,
- * and the order in which faults are reported. Tables are edited at the
+ * text, focus ids, the sample -32768, the 1.1 playback, 1.2 panel and 1.3
+ * range sections, a 1.0 table, and the order in which faults are reported. Tables are edited at the
  * documented offsets and the CRC re-made, so the content check must refuse. */
 #define _POSIX_C_SOURCE 200809L /* fmemopen */
 #include <setjmp.h>
@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "table_fixture.h"
 
@@ -70,7 +71,7 @@ static size_t tiny_table(uint8_t **out)
     static const double cxy[] = {0.0, 0.0}, fxy[] = {0.1, 0.1, 0.2, 0.2}, scale[] = {1e-5, 1e-5}, lead[] = {0, 0};
     static const uint32_t ids[] = {1, 2};
     haptic_table_spec spec = {1000, 1, 2, 2, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL,
-                              HAPTIC_DRIVE_FORCE, 1.0, lead, NULL};
+                              HAPTIC_DRIVE_FORCE, 1.0, lead, NULL, NULL};
     size_t size = (size_t)haptic_table_encoded_size(&spec);
     *out = malloc(size);
     haptic_table_error err;
@@ -138,7 +139,7 @@ static void energy_above_2_pow_53_is_the_exact_sum_rounded_once(void **state)
     s[(size_t)n * c - 1] = 2;
     const double cxy[8] = {0}, fxy[2] = {0.1, 0.1}, scale[1] = {1e-5};
     const uint32_t ids[1] = {7};
-    haptic_table_spec spec = {48000, c, 1, n, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL, 0, 0, NULL, NULL};
+    haptic_table_spec spec = {48000, c, 1, n, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL, 0, 0, NULL, NULL, NULL};
     size_t size = (size_t)haptic_table_encoded_size(&spec);
     uint8_t *b = malloc(size);
     assert_int_equal(haptic_table_encode(&spec, b, size, NULL), 0);
@@ -323,23 +324,25 @@ static void reserved_bytes_and_gaps_are_zero_up_to_the_known_minor(void **state)
     uint64_t pb = le64(b + 96), pl = le64(b + 80), gap = pb + 16 + 3 * 8;
     assert_int_equal(pb, 632);
     assert_int_equal(pl, 704);
+    /* 104..111 and 112..119: the absent panel and range sections' offsets. */
     struct { uint64_t at; uint8_t v; const char *needle; } edits[] = {
         {gap, 1, "gap between sections"}, {pl - 1, 0x80, "gap between sections"},
-        {104, 1, "header reserved"}, {127, 1, "header reserved"},
+        {104, 1, "header reserved"}, {112, 1, "header reserved"}, {119, 0x80, "header reserved"},
+        {120, 1, "header reserved"}, {127, 1, "header reserved"},
     };
     for (size_t i = 0; i < sizeof edits / sizeof *edits; i++) {
         memcpy(w, b, size);
         w[edits[i].at] = edits[i].v;
         expect(w, size, HAPTIC_TABLE_EFIELD, edits[i].needle, edits[i].at, edits[i].needle);
-        put(w + 10, 2, 3); /* the same bytes in a 1.3 file: a later minor may use them */
-        expect(w, size, 0, NULL, UINT64_MAX, "minor 3");
+        put(w + 10, 2, 4); /* the same bytes in a 1.4 file: a later minor may use them */
+        expect(w, size, 0, NULL, UINT64_MAX, "minor 4");
     }
-    /* An optional flag 1.2 does not define: refused in 1.2, ignored in 1.3. */
+    /* An optional flag 1.3 does not define: refused in 1.3, ignored in 1.4. */
     memcpy(w, b, size);
     put(w + 16, 4, 0x80010000u);
-    expect(w, size, HAPTIC_TABLE_EFIELD, "optional bits 0x80000000 unknown in version 1.2", 16, "flag 31");
-    put(w + 10, 2, 3);
-    expect(w, size, 0, NULL, UINT64_MAX, "flag 31 in 1.3");
+    expect(w, size, HAPTIC_TABLE_EFIELD, "optional bits 0x80000000 unknown in version 1.3", 16, "flag 31");
+    put(w + 10, 2, 4);
+    expect(w, size, 0, NULL, UINT64_MAX, "flag 31 in 1.4");
     free(w);
     free(b);
     table_fixture_free(&fx);
@@ -500,6 +503,366 @@ static void panel_section_is_checked_as_documented(void **state)
     table_fixture_free(&fx);
 }
 
+/* 1.3's range section. The fixture with 2 channels, 2 foci: channels at 128
+ * (32 bytes), foci at 160 (96), gram at 256 (32), provenance at 288 (256),
+ * playback at 544 (16 + 2 x 8), panel at 576 (32), range at 608 (16 + 2 x 16
+ * = 48, to 656), payload at 704 (the next multiple of 64). */
+static size_t range_table(uint8_t **out)
+{
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 2, 48, 4);
+    fx.spec.range = &fx.range; /* focus 0: [0.5, 2), focus 1: [0.25, +inf); 1 um, whole area */
+    size_t size = table_fixture_encode(&fx, out);
+    table_fixture_free(&fx);
+    assert_true(size > 0);
+    return size;
+}
+
+/* Each field at its documented offset, each bound at its edge, each bad
+ * value named at its byte offset with its field. */
+static void range_section_is_checked_as_documented(void **state)
+{
+    (void)state;
+    uint8_t *b, *w;
+    size_t size = range_table(&b);
+    w = malloc(size);
+    const uint64_t rg = le64(b + 112), pn = le64(b + 104), pl = le64(b + 80);
+    assert_int_equal(le32(b + 16), 0x00070000u);
+    assert_int_equal(pn, 576);
+    assert_int_equal(rg, 608);
+    assert_int_equal(pl, 704);
+    /* The writer's bytes: 1 um, scope 1 (u16), 6 reserved zero bytes, then lo, hi per focus. */
+    assert_true(get_f64(b + rg) == 1e-6);
+    assert_true(b[rg + 8] == 1 && b[rg + 9] == 0);
+    for (int k = 10; k < 16; k++)
+        assert_int_equal(b[rg + k], 0);
+    assert_true(get_f64(b + rg + 16) == 0.5 && get_f64(b + rg + 24) == 2.0);
+    assert_true(get_f64(b + rg + 32) == 0.25 && get_f64(b + rg + 40) == INFINITY);
+    assert_int_equal(check(b, size, NULL), 0);
+
+    const double max = HAPTIC_TABLE_RANGE_MAX_GAIN, tiny = 4.9406564584124654e-324;
+    struct { uint64_t at; int width; double f; uint64_t u; const char *field; } cases[] = {
+        /* threshold_m: finite, 0 < t <= 1000 */
+        {rg, 8, 1000.0, 0, NULL},                    {rg, 8, tiny, 0, NULL},
+        {rg, 8, nextafter(1000.0, 2000.0), 0, "range threshold_m"},
+        {rg, 8, 0.0, 0, "range threshold_m"},        {rg, 8, -0.0, 0, "range threshold_m"},
+        {rg, 8, -1e-6, 0, "range threshold_m"},      {rg, 8, NAN, 0, "range threshold_m"},
+        {rg, 8, INFINITY, 0, "range threshold_m"},   {rg, 8, -INFINITY, 0, "range threshold_m"},
+        /* scope: 1 or 2 */
+        {rg + 8, 2, 0, 2, NULL},                     {rg + 8, 2, 0, 0, "range scope"},
+        {rg + 8, 2, 0, 3, "range scope"},            {rg + 8, 2, 0, 0xFFFF, "range scope"},
+        {rg + 8, 2, 0, 0x0101, "range scope"},
+        /* reserved: u16 at +10, u32 at +12 */
+        {rg + 10, 2, 0, 1, "range reserved"},        {rg + 11, 1, 0, 0x80, "range reserved"},
+        {rg + 12, 4, 0, 1, "range reserved"},        {rg + 15, 1, 0, 0x80, "range reserved"},
+        /* gain_lo: finite, 0 < lo <= 1e6 */
+        {rg + 16, 8, max, 0, NULL},                  {rg + 16, 8, tiny, 0, NULL},
+        {rg + 16, 8, nextafter(max, 2 * max), 0, "focus 0 gain_lo"},
+        {rg + 16, 8, 0.0, 0, "focus 0 gain_lo"},     {rg + 16, 8, -0.0, 0, "focus 0 gain_lo"},
+        {rg + 16, 8, -0.5, 0, "focus 0 gain_lo"},    {rg + 16, 8, NAN, 0, "focus 0 gain_lo"},
+        {rg + 16, 8, INFINITY, 0, "focus 0 gain_lo"}, {rg + 16, 8, -INFINITY, 0, "focus 0 gain_lo"},
+        {rg + 32, 8, -NAN, 0, "focus 1 gain_lo"},
+        /* gain_hi: 0 < hi <= 1e6, or +inf; lo >= hi allowed (a failing focus) */
+        {rg + 24, 8, max, 0, NULL},                  {rg + 24, 8, INFINITY, 0, NULL},
+        {rg + 24, 8, 0.5, 0, NULL},                  {rg + 24, 8, tiny, 0, NULL},
+        {rg + 24, 8, nextafter(max, 2 * max), 0, "focus 0 gain_hi"},
+        {rg + 24, 8, 0.0, 0, "focus 0 gain_hi"},     {rg + 24, 8, -0.0, 0, "focus 0 gain_hi"},
+        {rg + 24, 8, -2.0, 0, "focus 0 gain_hi"},    {rg + 24, 8, NAN, 0, "focus 0 gain_hi"},
+        {rg + 24, 8, -INFINITY, 0, "focus 0 gain_hi"},
+        {rg + 40, 8, 0.0, 0, "focus 1 gain_hi"},     {rg + 40, 8, 1e6, 0, NULL},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        memcpy(w, b, size);
+        if (cases[i].width == 8)
+            put_f64(w + cases[i].at, cases[i].f);
+        else
+            put(w + cases[i].at, (size_t)cases[i].width, cases[i].u);
+        char what[48];
+        snprintf(what, sizeof what, "range case %zu (%s)", i, cases[i].field ? cases[i].field : "accepted");
+        /* Named at the field (a reserved byte: the first non-zero one, here the edited one). */
+        expect(w, size, cases[i].field ? HAPTIC_TABLE_EFIELD : 0, cases[i].field,
+               cases[i].field ? cases[i].at : UINT64_MAX, what);
+    }
+    /* Checked in order: the threshold before the scope, focus 0 before focus 1, lo before hi. */
+    memcpy(w, b, size);
+    put(w + rg + 8, 2, 9);
+    put_f64(w + rg, 0.0);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "range threshold_m", rg, "threshold before scope");
+    memcpy(w, b, size);
+    put_f64(w + rg + 40, -1.0);
+    put_f64(w + rg + 24, NAN);
+    put_f64(w + rg + 16, -1.0);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "focus 0 gain_lo", rg + 16, "lo before hi, focus 0 first");
+    /* Step 10: after the panel section, before the Gram matrix. */
+    memcpy(w, b, size);
+    put_f64(w + rg + 16, 0.0);
+    put_f64(w + le64(b + 64) + 8, 1e30); /* gram[0][1] */
+    put_f64(w + le64(b + 64) + 16, 1e30);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "focus 0 gain_lo", rg + 16, "range before Gram");
+    put_f64(w + pn, 301.0);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "panel temperature_c", pn, "panel before range");
+    free(w);
+    free(b);
+}
+
+/* Step 5: the section lies after the panel section (the playback section,
+ * the provenance), 8-aligned, wholly before the payload; the writer places
+ * it right after, but a zero gap before it is allowed. */
+static void range_section_placement(void **state)
+{
+    (void)state;
+    uint8_t *b, *w;
+    size_t size = range_table(&b);
+    w = malloc(size);
+    const uint64_t rg = 608, pl = 704;
+    struct { uint64_t off; const char *needle; } bad[] = {
+        {rg - 8, "overlaps a previous section"},  /* inside the panel section (576..608) */
+        {rg + 4, "is not a multiple of 8"},
+        {0, "overlaps a previous section"},
+        {UINT64_MAX - 7, "overlaps a previous section"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        memcpy(w, b, size);
+        put(w + 112, 8, bad[i].off);
+        char what[40];
+        snprintf(what, sizeof what, "range_offset %llu", (unsigned long long)bad[i].off);
+        expect(w, size, HAPTIC_TABLE_ELAYOUT, "range_offset", 112, what);
+        expect(w, size, HAPTIC_TABLE_ELAYOUT, bad[i].needle, 112, what);
+    }
+    /* 48 bytes from 664 run into the payload at 704: the payload's floor is the section's end. */
+    memcpy(w, b, size);
+    put(w + 112, 8, pl - 40);
+    expect(w, size, HAPTIC_TABLE_ELAYOUT, "payload_offset", 80, "range into the payload");
+    /* Moved later by 8 behind a zero gap: 616..664, still before the payload. */
+    memcpy(w, b, size);
+    memmove(w + rg + 8, w + rg, 48);
+    memset(w + rg, 0, 8);
+    put(w + 112, 8, rg + 8);
+    expect(w, size, 0, NULL, UINT64_MAX, "range moved by 8");
+    w[rg + 3] = 1; /* the gap is a gap: zero */
+    expect(w, size, HAPTIC_TABLE_EFIELD, "gap between sections", rg + 3, "gap before the range section");
+    /* Without the panel section it follows the playback section (576). */
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 2, 48, 4);
+    fx.spec.range = &fx.range;
+    fx.spec.panel = NULL;
+    uint8_t *np;
+    size_t nsize = table_fixture_encode(&fx, &np);
+    assert_int_equal(le64(np + 104), 0);
+    assert_int_equal(le64(np + 112), 576);
+    put(np + 112, 8, 568); /* inside the playback section (544..576) */
+    expect(np, nsize, HAPTIC_TABLE_ELAYOUT, "range_offset", 112, "overlaps playback");
+    free(np);
+    /* Without playback and panel sections: right after the provenance (544). */
+    fx.spec.drive_kind = HAPTIC_DRIVE_UNKNOWN;
+    nsize = table_fixture_encode(&fx, &np);
+    assert_int_equal(le64(np + 112), 544);
+    assert_int_equal(le32(np + 16), HAPTIC_TABLE_FLAG_RANGE);
+    put(np + 112, 8, 536);
+    expect(np, nsize, HAPTIC_TABLE_ELAYOUT, "range_offset", 112, "overlaps provenance");
+    free(np);
+    table_fixture_free(&fx);
+    free(w);
+    free(b);
+}
+
+/* Versioning as for 1.1 and 1.2: the flag and bytes 112..119 are unknown
+ * (must be 0) in a known minor < 3; a 1.3 file without the flag has them 0;
+ * a later minor ignores unknown things but the section is still checked. */
+static void range_section_versioning(void **state)
+{
+    (void)state;
+    uint8_t *b, *w;
+    size_t size = range_table(&b);
+    w = malloc(size);
+    const uint64_t rg = 608;
+    /* The same file called 1.2 or 1.1: the flag is an unknown optional bit there. */
+    const uint16_t older[] = {2, 1};
+    for (size_t i = 0; i < 2; i++) {
+        memcpy(w, b, size);
+        put(w + 10, 2, older[i]);
+        char needle[64];
+        snprintf(needle, sizeof needle, "optional bits 0x%08x unknown in version 1.%u",
+                 older[i] == 2 ? 0x00040000u : 0x00060000u, (unsigned)older[i]);
+        expect(w, size, HAPTIC_TABLE_EFIELD, needle, 16, needle);
+    }
+    /* In 1.2 the flag is unknown, so the layout (step 5) does not look for the
+     * section: an offset no 1.3 reader would take is named at the flag (step 7). */
+    memcpy(w, b, size);
+    put(w + 10, 2, 2);
+    put(w + 112, 8, 4);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "optional bits 0x00040000 unknown in version 1.2", 16, "1.2, bad offset");
+    put(w + 10, 2, 3);
+    expect(w, size, HAPTIC_TABLE_ELAYOUT, "range_offset", 112, "1.3, bad offset");
+    /* 1.2 with the flag cleared: the offset is reserved, then the section's bytes are a gap
+     * (1e-6 = 0x3EB0C6F7A0B5ED8D: its first byte 0x8D). */
+    memcpy(w, b, size);
+    put(w + 10, 2, 2);
+    put(w + 16, 4, 0x00030000u);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "header reserved", 112, "1.2, offset without flag");
+    put(w + 112, 8, 0);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "gap between sections", rg, "1.2, section without flag");
+    /* The same in 1.3. */
+    put(w + 10, 2, 3);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "gap between sections", rg, "1.3, section without flag");
+    put(w + 112, 8, rg);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "header reserved", 112, "1.3, offset without flag");
+    /* A later minor ignores the bytes and the section it does not announce... */
+    put(w + 10, 2, 4);
+    expect(w, size, 0, NULL, UINT64_MAX, "1.4, offset without flag");
+    /* ...and still checks the section it announces. */
+    memcpy(w, b, size);
+    put(w + 10, 2, 4);
+    put_f64(w + rg + 24, -1.0);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "focus 0 gain_hi", rg + 24, "1.4, bad hi");
+    put_f64(w + rg + 24, 2.0);
+    w[126] = 0x55; /* bytes 120..127 are a later minor's */
+    expect(w, size, 0, NULL, UINT64_MAX, "1.4, byte 126");
+    put(w + 10, 2, 3);
+    expect(w, size, HAPTIC_TABLE_EFIELD, "header reserved", 126, "1.3, byte 126");
+    free(w);
+    free(b);
+
+    /* A 1.2 file as the 1.2 writer wrote it (the writer's bytes with its
+     * minor: nothing in 112..127) is read, without a range. */
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 2, 48, 4);
+    size = table_fixture_encode(&fx, &b);
+    table_fixture_free(&fx);
+    for (int k = 112; k < 128; k++)
+        assert_int_equal(b[k], 0);
+    assert_int_equal(b[10], 3); /* the writer writes 1.3, with or without the section */
+    haptic_table t;
+    haptic_gain_range r = {-1, -1};
+    for (uint16_t minor = 2; minor <= 3; minor++) {
+        put(b + 10, 2, minor);
+        table_fixture_fix_crc(b, size);
+        assert_int_equal(check(b, size, NULL), 0);
+        assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+        assert_int_equal(t.format_minor, minor);
+        assert_int_equal(t.range_offset, 0);
+        assert_int_equal(haptic_table_gain_range(&t, 0, &r), -1);
+        assert_true(r.lo == -1 && r.hi == -1);
+        assert_true(isnan(haptic_table_range_threshold_m(&t)));
+        assert_int_equal(haptic_table_range_scope(&t), 0);
+        /* The 1.3 reserved bytes 112..119 set in a file without the section. */
+        b[115] = 1;
+        expect(b, size, HAPTIC_TABLE_EFIELD, "header reserved", 115, "112..119 without the section");
+        b[115] = 0;
+    }
+    free(b);
+}
+
+/* Writer -> reader: every value read back bit for bit, +inf and a failing
+ * focus (lo >= hi) included; the writer refuses what the reader refuses. */
+static void range_section_round_trips(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 3, 4, 32, 8);
+    const haptic_gain_range want[4] = {
+        {0.31622776601683794, 3.1622776601683795}, /* -10..+10 dB */
+        {1e-300, INFINITY},
+        {2.0, 0.5},                                /* fails at every gain */
+        {HAPTIC_TABLE_RANGE_MAX_GAIN, HAPTIC_TABLE_RANGE_MAX_GAIN},
+    };
+    memcpy(fx.gain_range, want, sizeof want);
+    fx.range.threshold_m = 2.5e-7;
+    fx.range.scope = HAPTIC_RANGE_FOCI_ONLY;
+    fx.spec.range = &fx.range;
+    char path[] = "/tmp/range-XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    close(fd);
+    haptic_table_error err;
+    if (haptic_table_write(path, &fx.spec, &err) != 0)
+        fail_msg("%s", err.message);
+    haptic_table t;
+    if (haptic_table_open(path, &t, &err) != 0)
+        fail_msg("%s", err.message);
+    unlink(path);
+    assert_int_equal(t.format_minor, 3);
+    assert_int_equal(t.flags, 0x00070000u);
+    assert_true(haptic_table_range_threshold_m(&t) == 2.5e-7);
+    assert_int_equal(haptic_table_range_scope(&t), HAPTIC_RANGE_FOCI_ONLY);
+    for (uint32_t f = 0; f < 4; f++) {
+        haptic_gain_range r;
+        assert_int_equal(haptic_table_gain_range(&t, f, &r), 0);
+        assert_memory_equal(&r, &want[f], sizeof r);
+    }
+    haptic_gain_range r;
+    assert_int_equal(haptic_table_gain_range(&t, 4, &r), -1);
+    assert_int_equal(haptic_table_gain_range(&t, 0, NULL), -1);
+    haptic_table_close(&t);
+    /* What the reader refuses, the writer does not write. */
+    fx.gain_range[1].lo = NAN;
+    uint8_t buf[4096];
+    assert_true(haptic_table_encoded_size(&fx.spec) <= sizeof buf);
+    assert_int_equal(haptic_table_encode(&fx.spec, buf, sizeof buf, &err), HAPTIC_TABLE_EFIELD);
+    assert_non_null(strstr(err.message, "focus 1 gain_lo"));
+    fx.gain_range[1].lo = 1.0;
+    fx.range.scope = 0;
+    assert_int_equal(haptic_table_encode(&fx.spec, buf, sizeof buf, &err), HAPTIC_TABLE_EFIELD);
+    assert_non_null(strstr(err.message, "range scope"));
+    fx.range.scope = HAPTIC_RANGE_WHOLE_AREA;
+    fx.range.focus = NULL;
+    assert_int_equal(haptic_table_encode(&fx.spec, buf, sizeof buf, &err), HAPTIC_TABLE_EINVAL);
+    assert_int_equal(haptic_table_encoded_size(&fx.spec), 0);
+    table_fixture_free(&fx);
+}
+
+/* The summary's range: the threshold and scope once, per focus lo..hi in dB
+ * against the stored level, "unbounded" for +inf, "none" for lo >= hi;
+ * "unknown" without the section. */
+static void summary_prints_the_safe_range(void **state)
+{
+    (void)state;
+    table_fixture fx;
+    table_fixture_init(&fx, 2, 3, 48, 4);
+    fx.gain_range[2].lo = 4.0; /* the fixture's focus 2 is 1/6..+inf: made a failing one */
+    fx.gain_range[2].hi = 3.0;
+    fx.spec.range = &fx.range;
+    uint8_t *b;
+    size_t size = table_fixture_encode(&fx, &b);
+    haptic_table t;
+    assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+    char text[4096] = {0};
+    FILE *f = fmemopen(text, sizeof text - 1, "w");
+    assert_int_equal(haptic_table_print_summary(&t, "t", f), 0);
+    fclose(f);
+    /* 20 log10(0.5) = -6.02, 20 log10(2) = +6.02, 20 log10(0.25) = -12.04. */
+    assert_non_null(strstr(text, "format 1.3"));
+    assert_non_null(strstr(text, "range        threshold 1 um over the whole active area (scope 1); per focus 'safe'"));
+    assert_non_null(strstr(text, "focus id 10  "));
+    assert_non_null(strstr(text, " ms  safe -6.0..+6.0 dB\n"));
+    assert_non_null(strstr(text, " ms  safe -12.0..+12.0 dB\n")); /* focus 1: 0.25..4 */
+    assert_non_null(strstr(text, "safe none: fails at every gain\n"));
+    free(b);
+    fx.gain_range[2].lo = 0.5 / 3;
+    fx.gain_range[2].hi = INFINITY;
+    fx.range.scope = HAPTIC_RANGE_FOCI_ONLY;
+    size = table_fixture_encode(&fx, &b);
+    assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+    memset(text, 0, sizeof text);
+    f = fmemopen(text, sizeof text - 1, "w");
+    assert_int_equal(haptic_table_print_summary(&t, "t", f), 0);
+    fclose(f);
+    assert_non_null(strstr(text, "threshold 1 um over the other foci only (scope 2)"));
+    assert_non_null(strstr(text, "safe -15.6 dB..unbounded\n")); /* 20 log10(1/6) */
+    free(b);
+    fx.spec.range = NULL;
+    size = table_fixture_encode(&fx, &b);
+    assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
+    memset(text, 0, sizeof text);
+    f = fmemopen(text, sizeof text - 1, "w");
+    assert_int_equal(haptic_table_print_summary(&t, "t", f), 0);
+    fclose(f);
+    assert_non_null(strstr(text, "range        unknown (no range section"));
+    assert_null(strstr(text, "safe "));
+    free(b);
+    table_fixture_free(&fx);
+}
+
 /* A table written by the 1.0 writer (tests/common/data): it loads, and what
  * 1.0 does not say is reported as unknown. */
 static void a_format_1_0_table_still_loads(void **state)
@@ -549,7 +912,7 @@ static void summary_prints_the_playback_facts(void **state)
     FILE *f = fmemopen(text, sizeof text - 1, "w");
     assert_int_equal(haptic_table_print_summary(&t, "t", f), 0);
     fclose(f);
-    assert_non_null(strstr(text, "format 1.2"));
+    assert_non_null(strstr(text, "format 1.3"));
     assert_non_null(strstr(text, "hash (unknown)"));
     assert_non_null(strstr(text, "panel        calibrated at 23.0 C, dE/E/dT -0.4 %/K"));
     assert_non_null(strstr(text, "exciter drive (Bl i), full scale (32767) = 2.5 N, 7.62963e-05 N per count"));
@@ -606,7 +969,7 @@ static uint8_t *insert_zeros(const uint8_t *b, size_t size, uint64_t at, size_t 
     memcpy(w, b, at);
     memcpy(w + at + n, b + at, size - at);
     put(w + 40, 8, size + n);
-    static const size_t offset_fields[] = {48, 56, 64, 72, 80, 96, 104};
+    static const size_t offset_fields[] = {48, 56, 64, 72, 80, 96, 104, 112};
     for (size_t i = 0; i < sizeof offset_fields / sizeof *offset_fields; i++) {
         uint64_t off = le64(w + offset_fields[i]);
         if (off != 0 && off >= at)
@@ -721,7 +1084,7 @@ static void truncation_is_etrunc_and_inconsistent_layout_is_elayout(void **state
     free(b);
 }
 
-/* header_size: 128 in a known minor; in a later one (1.3 here) a multiple
+/* header_size: 128 in a known minor; in a later one (1.4 here) a multiple
  * of 8 in 128..4096, the channels section at or after it. The sections are
  * moved 64 bytes later so header sizes up to 192 fit. */
 static void header_size_of_a_later_minor_is_a_multiple_of_8(void **state)
@@ -736,15 +1099,17 @@ static void header_size_of_a_later_minor_is_a_multiple_of_8(void **state)
         {2, 128, 0, 0, NULL},
         {2, 136, HAPTIC_TABLE_EFIELD, 12, "version 1.2 has 128"},
         {3, 128, 0, 0, NULL},
-        {3, 136, 0, 0, NULL},
-        {3, 192, 0, 0, NULL},
-        {3, 129, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
-        {3, 132, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
-        {3, 188, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
-        {3, 191, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
-        {3, 120, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
-        {3, 4104, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
-        {3, 200, HAPTIC_TABLE_ELAYOUT, 48, "channels_offset"},
+        {3, 136, HAPTIC_TABLE_EFIELD, 12, "version 1.3 has 128"},
+        {4, 128, 0, 0, NULL},
+        {4, 136, 0, 0, NULL},
+        {4, 192, 0, 0, NULL},
+        {4, 129, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {4, 132, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {4, 188, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {4, 191, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {4, 120, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {4, 4104, HAPTIC_TABLE_EFIELD, 12, "expected a multiple of 8"},
+        {4, 200, HAPTIC_TABLE_ELAYOUT, 48, "channels_offset"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         put(w + 10, 2, cases[i].minor);
@@ -797,6 +1162,11 @@ int main(void)
         cmocka_unit_test(provenance_text_is_checked_as_documented),
         cmocka_unit_test(playback_section_is_checked_as_documented),
         cmocka_unit_test(panel_section_is_checked_as_documented),
+        cmocka_unit_test(range_section_is_checked_as_documented),
+        cmocka_unit_test(range_section_placement),
+        cmocka_unit_test(range_section_versioning),
+        cmocka_unit_test(range_section_round_trips),
+        cmocka_unit_test(summary_prints_the_safe_range),
         cmocka_unit_test(a_format_1_0_table_still_loads),
         cmocka_unit_test(summary_prints_the_playback_facts),
         cmocka_unit_test(faults_are_reported_in_the_documented_order),

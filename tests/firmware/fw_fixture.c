@@ -61,6 +61,7 @@ void fw_table_encode(struct fw_table *t, const double *lead_time_s)
         .force_full_scale_n = lead_time_s ? 0.5 : 0.0,
         .focus_lead_time_s = lead_time_s,
         .panel = t->panel,
+        .range = t->range,
     };
     free(t->buf);
     t->size = (size_t)haptic_table_encoded_size(&spec);

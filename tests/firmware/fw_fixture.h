@@ -21,6 +21,7 @@ struct fw_table {
     uint32_t *ids;             /* ids[f] = 1000 - 10 f: not sorted, not contiguous */
     int16_t *samples_buf;      /* [focus][n][c] */
     const haptic_panel *panel; /* the panel section fw_table_encode writes (NULL: none) */
+    const haptic_range_spec *range; /* the range section fw_table_encode writes (NULL: none) */
     uint8_t *buf;              /* encoded file */
     size_t size;
     haptic_table table;        /* validated view of buf */

@@ -3,7 +3,8 @@
  * at the documented alignment; live mode with a FIFO: SIGHUP with a corrupt
  * table is refused and the old table keeps playing, a good table is taken;
  * live triggers rewound in at once leave exactly the sum of the voices in
- * the WAV (and without rewinding start on period boundaries). Live steps wait
+ * the WAV (and without rewinding start on period boundaries); the user's
+ * level, and its clamp into the foci's safe ranges (format 1.3). Live steps wait
  * for what hapticd does (a log line, a voice in the WAV, the FIFO read), not
  * for a time; the one race that is paced by sleeps says why. */
 #define _GNU_SOURCE
@@ -459,6 +460,146 @@ static void intensity_file_sets_the_level(void **state)
     fw_table_free(&t);
 }
 
+/* Independent of hapticd: the gain a focus of safe range [lo, hi) plays at
+ * for the level asked, as docs/firmware.md states it. */
+static double clamped(double lo, double hi, double level)
+{
+    const double top = hi * (1 - 1e-6);
+    return level < lo ? (lo < top ? lo : top) : level < top ? level : top;
+}
+
+/* frames [at, at + N) of the WAV hold `gain` times focus f of t (two foci
+ * summed when f2 >= 0), to one S32 LSB (the Q30 gain's rounding). */
+static void assert_plays_at(const int32_t *w, sf_count_t at, const struct fw_table *t, uint32_t f, int f2,
+                            double gain, const char *what)
+{
+    for (uint32_t n = 0; n < N; n++)
+        for (uint32_t c = 0; c < C; c++) {
+            const double s = fw_sample(t, f, n, c) + (f2 >= 0 ? fw_sample(t, (uint32_t)f2, n, c) : 0);
+            const double want = gain * s * 65536.0, got = w[(at + n) * C + c];
+            if (fabs(got - want) > 1.0)
+                fail_msg("%s: frame %ld+%u channel %u: %.0f, want %.1f (gain %.9g)", what, (long)at, n, c, got,
+                         want, gain);
+        }
+}
+
+/* A table with the foci's safe ranges (format 1.3), scripted at the level
+ * 0 dB: focus 0's range [1.25, 2) lies above it (it plays at +1.9 dB), focus
+ * 1's [0.25, 0.5) below (it plays at its top, 0.5 (1 - 1e-6)); both
+ * together play at the top of the intersection [1.25, 0.5), which holds no
+ * gain. The clamp is logged once, in one line, and --check shows it. */
+static void scripted_safe_range_clamps_the_level(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 2, N, FW_RANDOM, 5000, 61);
+    const haptic_gain_range r[2] = {{1.25, 2.0}, {0.25, 0.5}};
+    const haptic_range_spec spec = {1e-6, HAPTIC_RANGE_WHOLE_AREA, r};
+    t.range = &spec;
+    fw_table_encode(&t, NULL);
+    struct hs_files f;
+    hs_files(&f, "range");
+    fw_table_write(&t, f.table);
+    hs_write_board_extra(f.board, "S32_LE", "0,1,2,3,4,5,6,7", "[mixer]\ngain_limit = 4\n");
+    FILE *sf = fopen(f.script, "w");
+    fprintf(sf, "at 0 focus %u\nat 4800 focus %u\nat 9600 foci %u,%u\n", t.ids[0], t.ids[1], t.ids[0], t.ids[1]);
+    fclose(sf);
+    char *argv[] = {"hapticd", "--board", f.board, "--table", f.table, "--script", f.script,
+                    "--alsa-device", f.device, NULL};
+    assert_int_equal(hs_wait_exit(hs_spawn(argv, f.err)), 0);
+    assert_int_equal(hs_file_count(f.err, "intensity "), 1); /* one line */
+    assert_true(hs_file_contains(f.err, "intensity +0.0 dB: above the safe range of 1 of 2 foci (tops -6.0..-6.0 "
+                                        "dB): they play at their tops; below the safe range of 1 of 2 foci (bottoms "
+                                        "+1.9..+1.9 dB): they play at their bottoms"));
+    sf_count_t frames;
+    int32_t *w = hs_read_wav(f.wav, &frames, SF_FORMAT_PCM_32);
+    assert_int_equal(frames, (9600 + N + PERIOD - 1) / PERIOD * PERIOD);
+    assert_plays_at(w, PREFILL, &t, 0, -1, clamped(1.25, 2.0, 1.0), "focus 0 at its bottom");
+    assert_plays_at(w, 4800, &t, 1, -1, clamped(0.25, 0.5, 1.0), "focus 1 at its top");
+    assert_plays_at(w, 9600, &t, 0, 1, clamped(1.25, 0.5, 1.0), "both at the intersection's top");
+    free(w);
+    /* --check: the summary's range. */
+    char *check[] = {"hapticd", "--check", f.table, NULL};
+    char out[300];
+    hs_path(out, sizeof out, "range-check.txt");
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    pid_t pid;
+    assert_int_equal(posix_spawn(&pid, HAPTICD_EXE, &fa, NULL, check, environ), 0);
+    posix_spawn_file_actions_destroy(&fa);
+    assert_int_equal(hs_wait_exit(pid), 0);
+    assert_true(hs_file_contains(out, "format 1.3"));
+    assert_true(hs_file_contains(out, "range        threshold 1 um over the whole active area (scope 1)"));
+    assert_true(hs_file_contains(out, "safe +1.9..+6.0 dB\n"));
+    assert_true(hs_file_contains(out, "safe -12.0..-6.0 dB\n"));
+    fw_table_free(&t);
+}
+
+/* Live, with the user's intensity file at +8 dB: a table without a range
+ * section plays the level as ever and says nothing of ranges; SIGHUP to the
+ * same drives with ranges ([0.5, 2) and [0.25, +inf)): focus 0 now plays at
+ * its top, focus 1 at the level, and the reload says so in one line; -30 dB:
+ * both below their ranges, said in one line, focus 0 plays at its bottom. */
+static void live_level_is_clamped_into_the_safe_range(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 2, N, FW_RANDOM, 5000, 67);
+    struct hs_files f;
+    hs_files(&f, "range-live");
+    fw_table_write(&t, f.table);
+    char level[300], extra[400];
+    hs_path(level, sizeof level, "range_intensity_db");
+    snprintf(extra, sizeof extra, "[control]\nintensity_file = %s\n[mixer]\ngain_limit = 4\n", level);
+    hs_write_board_extra(f.board, "S32_LE", "0,1,2,3,4,5,6,7", extra);
+    fw_write_text(level, "+8\n");
+    int fd;
+    pid_t pid = hs_start_live(&f, 0, &fd);
+    assert_true(hs_file_contains(f.err, "intensity +8.0 dB\n"));
+    const double up = pow(10.0, 8.0 / 20.0), down = pow(10.0, -30.0 / 20.0);
+    struct { uint32_t focus; double gain; } voices[4];
+    sf_count_t onset[4], from = 0;
+    for (int i = 0; i < 4; i++) {
+        if (i == 1) {
+            const haptic_gain_range r[2] = {{0.5, 2.0}, {0.25, INFINITY}};
+            const haptic_range_spec spec = {1e-6, HAPTIC_RANGE_WHOLE_AREA, r};
+            t.range = &spec;
+            fw_table_encode(&t, NULL);
+            fw_table_write(&t, f.table);
+            t.range = NULL;
+            kill(pid, SIGHUP);
+            hs_wait_for(f.err, "intensity +8.0 dB: above the safe range of 1 of 2 foci (tops +6.0..+6.0 dB): they "
+                               "play at their tops");
+        } else if (i == 3) {
+            fw_write_text(level, "-30\n");
+            hs_wait_for(f.err, "intensity -30.0 dB: below the safe range of 2 of 2 foci (bottoms -12.0..-6.0 dB): "
+                               "they play at their bottoms");
+        }
+        voices[i].focus = i == 2;
+        voices[i].gain = i == 0 ? up : i == 1 ? clamped(0.5, 2.0, up) : i == 2 ? clamped(0.25, INFINITY, up)
+                                                                              : clamped(0.5, 2.0, down);
+        hs_send_focus(fd, t.ids[voices[i].focus]);
+        from = hs_wait_voice(f.wav, from, N, NULL, 0);
+        onset[i] = from;
+        from += N;
+    }
+    kill(pid, SIGTERM);
+    hs_assert_clean_exit(pid, f.err);
+    close(fd);
+    assert_int_equal(hs_file_count(f.err, "safe range"), 2); /* once after the reload, once for -30 dB */
+    assert_int_equal(hs_file_count(f.err, "intensity "), 3);  /* the start's +8 dB, then those two */
+    assert_true(voices[1].gain < 2.0 && voices[2].gain == up && voices[3].gain == 0.5);
+    sf_count_t frames;
+    int32_t *w = hs_read_wav(f.wav, &frames, SF_FORMAT_PCM_32);
+    const char *what[4] = {"no range: the level", "focus 0 at its top", "focus 1 at the level",
+                           "focus 0 at its bottom"};
+    for (int i = 0; i < 4; i++)
+        assert_plays_at(w, onset[i], &t, voices[i].focus, -1, voices[i].gain, what[i]);
+    free(w);
+    fw_table_free(&t);
+}
+
 static void bad_inputs_fail_cleanly(void **state)
 {
     (void)state;
@@ -518,6 +659,8 @@ int main(void)
         cmocka_unit_test(live_without_rewind_starts_at_period),
         cmocka_unit_test(live_signals_race_the_audio_thread),
         cmocka_unit_test(intensity_file_sets_the_level),
+        cmocka_unit_test(scripted_safe_range_clamps_the_level),
+        cmocka_unit_test(live_level_is_clamped_into_the_safe_range),
         cmocka_unit_test(bad_inputs_fail_cleanly),
     };
     return cmocka_run_group_tests(tests, hs_setup, hs_teardown);

@@ -1,7 +1,9 @@
 /* Player and engine: trigger during playback (ADD at the next period),
  * merging of triggers within one period, unknown foci, voice stealing,
  * table hand-over on reload, and a trigger storm with bounded memory
- * (no allocation at all on the real-time path). Rewinds: the frames
+ * (no allocation at all on the real-time path). A table's safe ranges
+ * (format 1.3): a voice's gain clamped into its foci's, and the exciters'
+ * protection skipping a voice it would lower below its range. Rewinds: the frames
  * rendered again are the same plus the new voice (checked on a simulated
  * device stream against a sum recomputed from the table), a voice that
  * ended is rendered again when a rewind reaches back into it, a slot is
@@ -494,6 +496,182 @@ static void idle_after_the_last_voice(void **state)
     assert_int_equal(atomic_load(&e->stats.active_voices), 0);
 }
 
+/* The table's safe ranges (format 1.3) re-encoded into t: threshold 1 um,
+ * whole area, focus f's range r[f]; NULL: the section left out. */
+static void set_ranges(struct fw_table *t, haptic_range_spec *spec, const haptic_gain_range *r)
+{
+    spec->threshold_m = 1e-6;
+    spec->scope = HAPTIC_RANGE_WHOLE_AREA;
+    spec->focus = r;
+    t->range = r ? spec : NULL;
+    fw_table_encode(t, NULL);
+}
+
+/* The voice's gain is clamped into the intersection of its foci's safe
+ * ranges, without an allocation; the gains by hand. Four disjoint foci of
+ * equal energy (two together: energy gain 1/sqrt(2)), amplitude 4000 (peak
+ * limit 8.19), [mixer] gain_limit 4. */
+static void a_voice_plays_within_its_foci_safe_range(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 4, 256, FW_DISJOINT, 4000, 9);
+    const haptic_gain_range r[4] = {{0.5, 2.0}, {1.25, 3.0}, {0.1, 0.8}, {0.1, INFINITY}};
+    haptic_range_spec spec;
+    set_ranges(&t, &spec, r);
+    const double top2 = 2.0 * (1 - 1e-6), top08 = 0.8 * (1 - 1e-6), s2 = sqrt(0.5);
+    struct { uint32_t n, f[2]; double level, want, hi; } cases[] = {
+        {1, {0, 0}, 1.0, 1.0, 2.0},     /* inside */
+        {1, {0, 0}, 0.01, 0.5, 2.0},    /* below: its bottom */
+        {1, {0, 0}, 3.5, top2, 2.0},    /* above: its top */
+        {1, {1, 0}, 1.0, 1.25, 3.0},
+        {1, {2, 0}, 1.0, top08, 0.8},
+        {1, {3, 0}, 3.5, 3.5, INFINITY}, /* unbounded above */
+        {1, {3, 0}, 6.0, 4.0, INFINITY}, /* gain_limit binds, not the range */
+        {2, {0, 1}, 1.0, 1.25, 2.0},    /* [1.25, 2): 1/sqrt(2) raised to 1.25 */
+        {2, {0, 2}, 1.0, s2, 0.8},      /* [0.5, 0.8): 1/sqrt(2) inside */
+        {2, {0, 2}, 2.0, top08, 0.8},   /* sqrt(2) lowered to the top */
+        {2, {1, 2}, 1.0, top08, 0.8},   /* [1.25, 0.8) holds no gain: the top, safety first */
+    };
+    for (int with = 1; with >= 0; with--) {
+        if (!with)
+            set_ranges(&t, &spec, NULL); /* the same table without the section: the law alone */
+        struct hd_board b;
+        struct hd_program *p = program(&t, &b);
+        b.gain_limit = 4.0;
+        for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+            struct hd_player pl;
+            assert_int_equal(hd_player_init(&pl, &b), 0);
+            hd_player_set_level(&pl, cases[i].level);
+            const uint32_t ids[2] = {t.ids[cases[i].f[0]], t.ids[cases[i].f[1]]};
+            const long before = atomic_load(&allocations);
+            assert_int_equal(hd_player_start(&pl, p, ids, cases[i].n), 1);
+            assert_int_equal(atomic_load(&allocations), before); /* real-time path */
+            const struct hd_mix *m = &pl.voices[0].mix;
+            double want = cases[i].want;
+            if (!with) {
+                const double law = cases[i].level * (cases[i].n == 2 ? s2 : 1.0);
+                want = law < 4.0 ? law : 4.0;
+            }
+            if (fabs(m->gain - want) > 1e-12 * want)
+                fail_msg("%s case %zu: gain %.17g, want %.17g", with ? "ranged" : "plain", i, m->gain, want);
+            if (with && !(m->gain < cases[i].hi && (double)m->gain_q30 / (1 << 30) < cases[i].hi))
+                fail_msg("case %zu: gain %.17g (Q30 %lld) reaches hi %g", i, m->gain, (long long)m->gain_q30,
+                         cases[i].hi);
+            if (with && i == 3) { /* focus 1 at its bottom, 1.25: the rendered samples (its slot, frames 64..127) */
+                int32_t out[2 * P * C];
+                hd_player_render(&pl, out, P);
+                hd_player_render(&pl, out + P * C, P);
+                for (uint32_t n = P; n < 2 * P; n++)
+                    for (uint32_t c = 0; c < C; c++)
+                        assert_true(fabs(out[n * C + c] - 1.25 * 65536.0 * fw_sample(&t, 1, n, c)) <= 1.0);
+            }
+            hd_player_free(&pl);
+        }
+        hd_program_free(p);
+    }
+    fw_table_free(&t);
+}
+
+/* The exciters' protection may lower a voice, but not below the bottom of
+ * its safe range (where the focus is not felt): then it is skipped, and
+ * counted. One focus of constant amplitude 3000 on 4 channels x 256 frames;
+ * the rating is set so the coils take it at gain 0.6 at most:
+ * P tau = 0.36 J E (J joules per count^2, E = 256 x 3000^2 per channel). */
+static void protection_skips_a_voice_it_would_lower_below_its_range(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 1, 256, FW_CONSTANT, 3000, 1);
+    const double J = (10.0 / 32767.0) * (10.0 / 32767.0) / 4.0 / 48000.0, E = 256.0 * 3000.0 * 3000.0;
+    const struct { int ranged; double lo; double want; } cases[] = {
+        {0, 0, 0.6},     /* no range section: lowered to 0.6, as before */
+        {1, 0.5, 0.6},   /* bottom 0.5: lowered to 0.6, still inside */
+        {1, 0.59, 0.6},
+        {1, 0.61, 0.0},  /* bottom 0.61: 0.6 would not be felt: skipped */
+        {1, 0.9, 0.0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        const haptic_gain_range r = {cases[i].lo, 2.0};
+        haptic_range_spec spec;
+        set_ranges(&t, &spec, cases[i].ranged ? &r : NULL);
+        struct hd_board b;
+        struct hd_program *p = program(&t, &b);
+        b.exciters.enabled = true;
+        b.exciters.power_count = b.exciters.impedance_count = b.exciters.tau_count = 1;
+        b.exciters.rated_power_w[0] = 0.36 * J * E / 1.0;
+        b.exciters.impedance_ohm[0] = 4.0;
+        b.exciters.tau_s[0] = 1.0;
+        b.amp_full_scale_v = 10.0;
+        struct hd_player pl;
+        assert_int_equal(hd_player_init(&pl, &b), 0);
+        assert_true(pl.protected);
+        const int started = hd_player_start(&pl, p, &t.ids[0], 1);
+        assert_int_equal(started, cases[i].want > 0);
+        assert_int_equal(pl.protect.skipped, cases[i].want > 0 ? 0 : 1);
+        assert_int_equal(pl.protect.attenuated, cases[i].want > 0 ? 1 : 0);
+        if (started && fabs(pl.voices[0].mix.gain - cases[i].want) > 1e-9)
+            fail_msg("case %zu: gain %.12g, want %g", i, pl.voices[0].mix.gain, cases[i].want);
+        hd_player_free(&pl);
+        hd_program_free(p);
+    }
+    fw_table_free(&t);
+}
+
+/* The main thread's one line on what the clamp does to the foci alone at a
+ * level (hd_program_range_note), by hand: 20 log10(1.25) = +1.94 dB,
+ * 20 log10(0.8 (1 - 1e-6)) = -1.94 dB, 20 log10(2 (1 - 1e-6)) = +6.02 dB. */
+static void the_clamp_is_said_in_one_line(void **state)
+{
+    (void)state;
+    struct fw_table t;
+    fw_table_make(&t, C, 4, 256, FW_DISJOINT, 4000, 9);
+    haptic_gain_range r[4] = {{0.5, 2.0}, {1.25, 3.0}, {0.1, 0.8}, {0.1, INFINITY}};
+    haptic_range_spec spec;
+    set_ranges(&t, &spec, r);
+    struct hd_board b;
+    struct hd_program *p = program(&t, &b);
+    char line[HD_ERR_MAX];
+    const struct { double level; int n; const char *want; } cases[] = {
+        {1.0, 2, "intensity +0.0 dB: above the safe range of 1 of 4 foci (tops -1.9..-1.9 dB): they play at their "
+                 "tops; below the safe range of 1 of 4 foci (bottoms +1.9..+1.9 dB): they play at their bottoms"},
+        {pow(10, 8 / 20.0), 2, "intensity +8.0 dB: above the safe range of 2 of 4 foci (tops -1.9..+6.0 dB): they "
+                               "play at their tops"},
+        {0.5, 1, "intensity -6.0 dB: below the safe range of 1 of 4 foci (bottoms +1.9..+1.9 dB): they play at "
+                 "their bottoms"},
+        {0.01, 4, "intensity -40.0 dB: below the safe range of 4 of 4 foci (bottoms -20.0..+1.9 dB): they play at "
+                  "their bottoms"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        assert_int_equal(hd_program_range_note(p, cases[i].level, line, sizeof line), cases[i].n);
+        assert_string_equal(line, cases[i].want);
+    }
+    hd_program_free(p);
+    /* Every focus inside: nothing to say. A focus that passes at no gain is said at any level. */
+    r[1].lo = 0.5;
+    r[2].hi = 2.0;
+    set_ranges(&t, &spec, r);
+    p = program(&t, &b);
+    assert_int_equal(hd_program_range_note(p, 1.0, line, sizeof line), 0);
+    assert_string_equal(line, "");
+    hd_program_free(p);
+    r[2].lo = 3.0;
+    set_ranges(&t, &spec, r);
+    p = program(&t, &b);
+    assert_int_equal(hd_program_range_note(p, 1.0, line, sizeof line), 1);
+    assert_string_equal(line, "intensity +0.0 dB: 1 of 4 foci pass at no gain (tops +6.0..+6.0 dB): they play at "
+                              "their tops");
+    hd_program_free(p);
+    /* No range section: nothing. */
+    set_ranges(&t, &spec, NULL);
+    p = program(&t, &b);
+    assert_null(p->range);
+    assert_int_equal(hd_program_range_note(p, 4.0, line, sizeof line), 0);
+    assert_string_equal(line, "");
+    hd_program_free(p);
+    fw_table_free(&t);
+}
+
 /* Each test's rig: foci, samples, kind, amplitude, seed, latency record. */
 #define RIG_TEST(f) cmocka_unit_test_prestate_setup_teardown(f, rig_setup, rig_teardown, (void *)&f##_rig)
 static const struct rig_spec trigger_during_playback_adds_at_next_period_rig = {2, 300, FW_RANDOM, 1000, 11, 0};
@@ -518,6 +696,9 @@ int main(void)
         RIG_TEST(trigger_storm_bounded_memory),
         cmocka_unit_test(ring_peek_and_release),
         RIG_TEST(idle_after_the_last_voice),
+        cmocka_unit_test(a_voice_plays_within_its_foci_safe_range),
+        cmocka_unit_test(protection_skips_a_voice_it_would_lower_below_its_range),
+        cmocka_unit_test(the_clamp_is_said_in_one_line),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
