@@ -14,6 +14,7 @@
 #include "board.h"
 #include "control.h"
 #include "engine.h"
+#include "exciter_report.h"
 #include "log.h"
 #include "program.h"
 #include "rt.h"
@@ -80,10 +81,12 @@ static void usage(FILE *f)
     fprintf(f, "usage: hapticd --board boards/NAME/board.ini [--table FILE.htab] [--triggers -|FIFO]\n"
                "               [--script FILE] [--alsa-device PCM] [--touch-device PATH] [--rt-priority N] [--drop]\n"
                "               [--tail-frames N] [--latency-report FILE|-] [--syslog]\n"
-               "       hapticd --check FILE.htab\n");
+               "       hapticd --check FILE.htab [--board boards/NAME/board.ini]\n");
 }
 
-static int check_table(const char *path)
+/* --check: the table's summary; with a board, also whether the board takes
+ * it (rate, channels) and what each focus costs its exciters. */
+static int check_table(const char *path, const char *board_path)
 {
     haptic_table t;
     haptic_table_error err;
@@ -93,6 +96,21 @@ static int check_table(const char *path)
     }
     haptic_table_print_summary(&t, path, stdout);
     haptic_table_close(&t);
+    if (!board_path)
+        return 0;
+    static struct hd_board board;
+    struct hd_program *p = NULL;
+    char why[HD_ERR_MAX];
+    int rc = hd_board_load(board_path, &board, why);
+    if (rc == 0)
+        rc = hd_program_load(path, &board, &p, why);
+    if (rc == 0)
+        rc = hd_exciter_report(p, &board, board_path, stdout, why);
+    hd_program_free(p);
+    if (rc != 0) {
+        fprintf(stderr, "hapticd: %s\n", why);
+        return 1;
+    }
     return 0;
 }
 
@@ -426,7 +444,9 @@ static int run_live(struct daemon *d)
 int main(int argc, char **argv)
 {
     if (argc == 3 && strcmp(argv[1], "--check") == 0)
-        return check_table(argv[2]);
+        return check_table(argv[2], NULL);
+    if (argc == 5 && strcmp(argv[1], "--check") == 0 && strcmp(argv[3], "--board") == 0)
+        return check_table(argv[2], argv[4]);
     /* SIGHUP and SIGTERM wait from the first instruction on: blocked here
      * (every thread inherits the mask), taken by run_live's sigtimedwait.
      * One that comes while the daemon starts is acted on as soon as it runs

@@ -28,6 +28,17 @@ int hd_protect_init(struct hd_protect *pr, uint32_t channels, const struct hd_ex
     return 0;
 }
 
+void hd_protect_voice_cost(const struct hd_protect *pr, uint32_t c, double root, double gain,
+                           struct hd_voice_cost *out)
+{
+    *out = (struct hd_voice_cost){0.0, 0.0, INFINITY};
+    if (c >= pr->channels || pr->rating[c].rated_power_w <= 0)
+        return;
+    out->joules = gain * root * gain * root * pr->joules_per_count2[c];
+    out->heat_step_w = out->joules / pr->rating[c].tau_s;
+    out->sustained_hz = out->joules > 0 ? pr->rating[c].rated_power_w / out->joules : INFINITY;
+}
+
 double hd_protect_heat_w(const struct hd_protect *pr, uint32_t c, uint64_t now_ns)
 {
     if (c >= pr->channels || pr->rating[c].rated_power_w <= 0 || pr->heat_w[c] == 0.0)

@@ -60,6 +60,19 @@ struct hd_protect {
 int hd_protect_init(struct hd_protect *pr, uint32_t channels, const struct hd_exciter_rating *rating,
                     double full_scale_v, uint32_t rate_hz);
 
+/* What one voice costs coil c: a drive of root energy `root` (sqrt of its
+ * sum of s^2 on that channel, table counts) played at `gain` puts
+ * `joules` = (gain root)^2 J into it (J: the channel's joules per count^2),
+ * raises its heat by `heat_step_w` = joules / tau when short beside tau,
+ * and the rating sustains `sustained_hz` = rated_power_w / joules such
+ * voices a second for ever (the heat's long-run average is the mean
+ * power). An unprotected channel costs 0 and sustains +infinity. */
+struct hd_voice_cost {
+    double joules, heat_step_w, sustained_hz;
+};
+void hd_protect_voice_cost(const struct hd_protect *pr, uint32_t c, double root, double gain,
+                           struct hd_voice_cost *out);
+
 /* The heat of channel c at now_ns (watts of steady power). */
 double hd_protect_heat_w(const struct hd_protect *pr, uint32_t c, uint64_t now_ns);
 

@@ -536,6 +536,92 @@ static void scripted_safe_range_clamps_the_level(void **state)
     fw_table_free(&t);
 }
 
+/* `hapticd --check TABLE` with its output in hs_dir/name; the exit status. */
+static int check_into(char *const argv[], const char *name, char *out, size_t cap)
+{
+    hs_path(out, cap, name);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    char err[320];
+    snprintf(err, sizeof err, "%s.err", out);
+    posix_spawn_file_actions_addopen(&fa, 2, err, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    pid_t pid;
+    assert_int_equal(posix_spawn(&pid, HAPTICD_EXE, &fa, NULL, argv, environ), 0);
+    posix_spawn_file_actions_destroy(&fa);
+    return hs_wait_exit(pid);
+}
+
+/* `hapticd --check TABLE --board BOARD`: what each focus costs the board's
+ * exciters, against energies computed here from the samples. Every sample
+ * of the constant table is `amp` on every channel but exciter 3's, 2 amp:
+ * the busiest, one touch puts N (2 amp)^2 (V / 32767)^2 / Z / rate joules
+ * into its coil, adds that over
+ * tau to its heat, and the rating sustains P / that touches a second; at
+ * the top of a focus's safe range, the top's square times as much. A board
+ * without ratings, or one the table does not fit, is refused in one line. */
+static void check_with_a_board_reports_the_exciters_cost(void **state)
+{
+    (void)state;
+    const int amp = 1000;
+    struct fw_table t;
+    fw_table_make(&t, C, 2, N, FW_CONSTANT, amp, 1);
+    for (size_t i = 3; i < (size_t)2 * N * C; i += C) /* exciter 3 the busiest: twice the amplitude */
+        t.samples_buf[i] = 2 * amp;
+    const haptic_gain_range r[2] = {{0.5, 2.0}, {0.25, INFINITY}};
+    const haptic_range_spec spec = {1e-6, HAPTIC_RANGE_WHOLE_AREA, r};
+    t.range = &spec;
+    fw_table_encode(&t, NULL);
+    struct hs_files f;
+    hs_files(&f, "exciters");
+    fw_table_write(&t, f.table);
+    hs_write_board_extra(f.board, "S32_LE", "0,1,2,3,4,5,6,7",
+                         "[exciters]\nrated_power_w = 2\nimpedance_ohm = 8\nthermal_tau_s = 0.5\n"
+                         "[amplifier]\nfull_scale_v = 10\n");
+    char out[300];
+    char *argv[] = {"hapticd", "--check", f.table, "--board", f.board, NULL};
+    assert_int_equal(check_into(argv, "exciters-check.txt", out, sizeof out), 0);
+    size_t len;
+    char *text = hs_slurp(out, &len);
+    const double v = 10.0 / 32767.0, joules = (double)N * (2 * amp) * (2 * amp) * v * v / 8.0 / 48000.0;
+    for (uint32_t k = 0; k < 2; k++) {
+        char head[96];
+        snprintf(head, sizeof head, "  focus %u: exciter 3 (2 W rated, tau 0.5 s): ", t.ids[k]);
+        const char *line = strstr(text, head);
+        if (!line)
+            fail_msg("no line '%s' in:\n%s", head, text);
+        double mj, mw, hz, top_db, top_mj, top_hz;
+        assert_int_equal(sscanf(line + strlen(head), "%lf mJ a touch, heat +%lf mW, %lf touches/s; at the top of "
+                                                     "its safe range (%lf dB) %lf mJ, %lf touches/s",
+                                &mj, &mw, &hz, &top_db, &top_mj, &top_hz),
+                         k == 0 ? 6 : 3);
+        assert_true(fabs(mj / (1e3 * joules) - 1) < 1e-3);
+        assert_true(fabs(mw / (1e3 * joules / 0.5) - 1) < 1e-3);
+        assert_true(fabs(hz / (2.0 / joules) - 1) < 1e-3);
+        if (k == 0) { /* the top: 2 (1 - 1e-6), +6.0 dB */
+            assert_true(fabs(top_db - 6.0) < 0.05);
+            assert_true(fabs(top_mj / (1e3 * joules * 4) - 1) < 1e-3);
+            assert_true(fabs(top_hz / (2.0 / joules / 4) - 1) < 1e-3);
+        } else { /* unbounded: no top to report */
+            assert_non_null(strstr(line, "touches/s; its safe range has no top\n"));
+        }
+    }
+    free(text);
+    /* A board without ratings; a board of another channel count. */
+    hs_write_board(f.board, "S32_LE", "0,1,2,3,4,5,6,7");
+    assert_int_equal(check_into(argv, "exciters-none.txt", out, sizeof out), 1);
+    char err[320];
+    snprintf(err, sizeof err, "%s.err", out);
+    assert_int_equal(hs_file_count(err, "\n"), 1);
+    assert_true(hs_file_contains(err, "no [exciters] ratings to compare the drives with"));
+    hs_write_board_extra(f.board, "S32_LE", "0,1,2,3", "[exciters]\nrated_power_w = 2\nimpedance_ohm = 8\n"
+                                                       "[amplifier]\nfull_scale_v = 10\n");
+    assert_int_equal(check_into(argv, "exciters-channels.txt", out, sizeof out), 1);
+    snprintf(err, sizeof err, "%s.err", out);
+    assert_int_equal(hs_file_count(err, "\n"), 1);
+    fw_table_free(&t);
+}
+
 /* Live, with the user's intensity file at +8 dB: a table without a range
  * section plays the level as ever and says nothing of ranges; SIGHUP to the
  * same drives with ranges ([0.5, 2) and [0.25, +inf)): focus 0 now plays at
@@ -660,6 +746,7 @@ int main(void)
         cmocka_unit_test(live_signals_race_the_audio_thread),
         cmocka_unit_test(intensity_file_sets_the_level),
         cmocka_unit_test(scripted_safe_range_clamps_the_level),
+        cmocka_unit_test(check_with_a_board_reports_the_exciters_cost),
         cmocka_unit_test(live_level_is_clamped_into_the_safe_range),
         cmocka_unit_test(bad_inputs_fail_cleanly),
     };
