@@ -183,18 +183,22 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
     }
     // Up to a dozen foci, one line each; a dense grid as worst / median / best.
     // Either way the verdict (data/verdict.h FocusMetrics::passes) comes last,
-    // and every focus that fails says why and where its ghost is.
+    // and every focus that fails says why and where its ghost is. Beside it
+    // the safe range (FocusMetrics::gain_range): the gains, in dB relative to
+    // the stored level, at which it passes, as the table stores them.
     const double thr = in.calibration.threshold_m;
     const pipeline::VerdictSummary verdict = pipeline::summarize_verdict(v.foci);
     const bool per_focus = v.foci.size() <= 12;
     if (per_focus) {
-        std::fprintf(stderr, "%-6s %9s %9s %10s %11s %9s %9s %9s %8s %s\n", "focus", "x_mm", "y_mm", "peak_um",
-                     "others_um", "contr_dB", "area_dB", "spot_mm", "lead_ms", "verdict");
+        std::fprintf(stderr, "%-6s %9s %9s %10s %11s %9s %9s %9s %8s %17s %s\n", "focus", "x_mm", "y_mm", "peak_um",
+                     "others_um", "contr_dB", "area_dB", "spot_mm", "lead_ms", "safe_range_dB", "verdict");
         for (const pipeline::FocusMetrics &m : v.foci)
-            std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %11.2f %9.1f %9s %9.1f %8.1f %s\n", m.id, m.at.x_m * 1e3,
-                         m.at.y_m * 1e3, m.peak_m * 1e6, m.max_other_foci_m * 1e6, m.other_foci_contrast_db,
-                         m.whole_area ? fmt("%.1f", m.whole_area_contrast_db).c_str() : "-", m.spot_diameter_m * 1e3,
-                         m.lead_time_s * 1e3, m.passes() ? "pass" : ("FAIL: " + m.failure(thr)).c_str());
+            std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %11.2f %9.1f %9s %9.1f %8.1f %17s %s\n", m.id,
+                         m.at.x_m * 1e3, m.at.y_m * 1e3, m.peak_m * 1e6, m.max_other_foci_m * 1e6,
+                         m.other_foci_contrast_db, m.whole_area ? fmt("%.1f", m.whole_area_contrast_db).c_str() : "-",
+                         m.spot_diameter_m * 1e3, m.lead_time_s * 1e3,
+                         pipeline::safe_range_text(m.gain_range(thr)).c_str(),
+                         m.passes() ? "pass" : ("FAIL: " + m.failure(thr)).c_str());
     } else {
         auto stat = [&](const char *name, const char *unit, double scale, auto get) {
             std::vector<double> x;
@@ -219,8 +223,9 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
             return a->whole_area_contrast_db < b->whole_area_contrast_db;
         });
         for (std::size_t i = 0; i < failing.size() && i < 12; i++)
-            std::fprintf(stderr, "focus %u at (%.1f, %.1f) mm FAILS: %s\n", failing[i]->id, failing[i]->at.x_m * 1e3,
-                         failing[i]->at.y_m * 1e3, failing[i]->failure(thr).c_str());
+            std::fprintf(stderr, "focus %u at (%.1f, %.1f) mm FAILS: %s; safe_range_dB %s\n", failing[i]->id,
+                         failing[i]->at.x_m * 1e3, failing[i]->at.y_m * 1e3, failing[i]->failure(thr).c_str(),
+                         pipeline::safe_range_text(failing[i]->gain_range(thr)).c_str());
         if (failing.size() > 12)
             std::fprintf(stderr, "... and %zu more failing foci (metrics.json lists each)\n", failing.size() - 12);
         const pipeline::FocusMetrics &w = v.foci[verdict.worst];

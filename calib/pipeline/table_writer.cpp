@@ -21,6 +21,16 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
     for (Point p : r.exciters)
         cxy.insert(cxy.end(), {p.x_m, p.y_m});
     std::vector<int16_t> samples(K * frames * C, 0);
+    // Every figure the table stores per focus (scale_m, the lead time, the
+    // safe range) is the verification's of the stored samples: a focus
+    // without its figures has no table to be in (a range section is whole or
+    // absent, and a range guessed for one focus would be a promise nothing
+    // measured).
+    if (r.verification.foci.size() != K)
+        throw std::runtime_error("the verification measured " + std::to_string(r.verification.foci.size()) + " of " +
+                                 std::to_string(K) + " foci: no table without every focus's figures");
+    std::vector<haptic_gain_range> ranges;
+    bool whole_area = true;
     for (size_t f = 0; f < K; f++) {
         const FocusMetrics &m = r.verification.foci[f];
         if (!(m.peak_m > 0) || !std::isfinite(m.peak_m))
@@ -29,6 +39,8 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
         fxy.insert(fxy.end(), {in.foci.points[f].at.x_m, in.foci.points[f].at.y_m});
         scale.push_back(m.peak_m);
         lead.push_back(m.lead_time_s);  // the same playback as scale_m: the stored samples at gain 1
+        ranges.push_back(m.gain_range(in.calibration.threshold_m));  // the same, relative to gain 1
+        whole_area &= m.whole_area;
         std::copy(r.signals[f].samples.begin(), r.signals[f].samples.end(), samples.begin() + f * frames * C);
     }
     char created[32];
@@ -70,6 +82,17 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
     const bool stated = in.tolerance && in.tolerance->youngs_per_kelvin;
     panel.youngs_per_k = panel_youngs_per_kelvin(in.tolerance ? &*in.tolerance : nullptr, in.plate->params().material);
     spec.panel = stated || panel.youngs_per_k != 0 ? &panel : nullptr;
+    // The safe range of every focus (FocusMetrics::gain_range, the verdict's
+    // rule at any gain) with the threshold it was judged at and where it looked:
+    // the whole area when every focus's was measured (through H), else the
+    // other foci only (the forward path), the scope the verdict itself had (a
+    // focus whose whole area was measured as well has the narrower range:
+    // still true of the foci).
+    haptic_range_spec range{};
+    range.threshold_m = in.calibration.threshold_m;
+    range.scope = whole_area ? HAPTIC_RANGE_WHOLE_AREA : HAPTIC_RANGE_FOCI_ONLY;
+    range.focus = ranges.data();
+    spec.range = &range;
     haptic_table_error err{};
     if (haptic_table_write(path.c_str(), &spec, &err) != 0)
         throw std::runtime_error(path + ": " + err.message);

@@ -44,6 +44,23 @@ toml::array points_array(const std::vector<Point> &pts)
     return a;
 }
 
+// metrics.json's safe_range_db: the figures of pipeline::safe_range_text, in
+// dB relative to the stored level; [lo, hi], hi "unbounded" for +infinity
+// (JSON has no infinity), or "none" when no gain passes.
+void insert_safe_range(toml::table &t, const haptic_gain_range &r)
+{
+    if (!pipeline::any_gain_passes(r)) {
+        t.insert("safe_range_db", "none");
+        return;
+    }
+    toml::array a{pipeline::gain_db(r.lo)};
+    if (std::isinf(r.hi))
+        a.push_back("unbounded");
+    else
+        a.push_back(pipeline::gain_db(r.hi));
+    t.insert("safe_range_db", std::move(a));
+}
+
 }  // namespace
 
 void write_metrics_json(const std::string &dir, const ReportContext &c)
@@ -72,6 +89,7 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
             t.insert("others_below_threshold", m.others_below_threshold);
             t.insert("passes", m.passes());
             t.insert("verdict_scope", m.verdict_scope());
+            insert_safe_range(t, m.gain_range(in.calibration.threshold_m));
             if (!m.passes())
                 t.insert("failure", m.failure(in.calibration.threshold_m));
             if (m.whole_area) {
@@ -408,7 +426,8 @@ void write_html_report(const std::string &dir, const ReportContext &c)
         h << "<th>max at other foci (um)</th><th>contrast over the other foci (dB)</th><th>spot diameter (mm)</th>"
              "<th>lambda/2 (mm)</th><th>field contrast at the focus instant (dB)</th>"
              "<th>whole-area contrast, all times (dB)</th><th>lead time (ms)</th><th>perceived offset (mm)</th>"
-             "<th>crosses threshold</th><th>others below</th><th>whole area below</th><th>verdict</th>";
+             "<th>crosses threshold</th><th>others below</th><th>whole area below</th>"
+             "<th>safe range (dB re the stored level)</th><th>verdict</th>";
     else
         h << "<th>peak time (ms)</th><th>crosses threshold</th>";
     h << "</tr>";
@@ -423,14 +442,21 @@ void write_html_report(const std::string &dir, const ReportContext &c)
               << "</td><td>" << num(m.lead_time_s * 1e3) << "</td><td>"
               << (m.whole_area ? num(m.perceived_offset_distance_m * 1e3) : "-") << "</td>"
               << yes(m.crosses_threshold) << yes(m.others_below_threshold)
-              << (m.whole_area ? yes(m.whole_area_below_threshold) : std::string("<td>-</td>"))
+              << (m.whole_area ? yes(m.whole_area_below_threshold) : std::string("<td>-</td>")) << "<td>"
+              << pipeline::safe_range_text(m.gain_range(c.input->calibration.threshold_m)) << "</td>"
               << (m.passes() ? std::string("<td class='ok'>pass</td>")
                              : "<td class='bad'>fails: " + canvas::xml_escape(m.failure(c.input->calibration.threshold_m)) + "</td>");
         else
             h << "<td>" << num(m.lead_time_s * 1e3) << "</td>" << yes(m.crosses_threshold);
         h << "</tr>";
     }
-    h << "</table>" << drive_design_html(c);
+    h << "</table>";
+    if (c.mode == "table")
+        h << "<p>Safe range: the gains, in dB relative to the level the table stores, at which the focus passes the "
+             "verdict: from the gain at which its focal peak reaches the threshold up to (not including) the gain at "
+             "which something the verdict judges beyond lambda/2 reaches it. The table stores it per focus. "
+             "Unbounded: nothing judged beyond lambda/2 moves; none: no gain passes.</p>";
+    h << drive_design_html(c);
     if (c.mode == "table") {
         h << field_sections_html(c, shown);
         if (c.result && c.result->tolerance)

@@ -19,7 +19,9 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -233,6 +235,34 @@ TEST_F(VerdictCli, CalibrateExits3OnAGhostAfterWritingTableAndReport)
         EXPECT_NE(r.err.find("FAIL: " + f["failure"].s), std::string::npos) << r.err;
     }
     EXPECT_TRUE(ghost) << read_text(report / "metrics.json");
+    // The safe range (test_safe_range.cpp checks it against the verdict of the
+    // scaled table): in metrics.json from the focus's own figures, the same on
+    // its terminal line and in the report, as the table stores it. Each focus
+    // fails on its ghost, so both ends lie below the stored level.
+    ASSERT_EQ(haptic_table_open(table.string().c_str(), &t, &e), 0) << e.message;
+    const double thr = m["threshold_m"].n;
+    for (const Json &f : m["foci"].items) {
+        SCOPED_TRACE("focus " + std::to_string(int(f["id"].n)));
+        const Json &range = f["safe_range_db"];
+        ASSERT_EQ(range.items.size(), 2u) << range.s;
+        const double lo_db = range.items[0].n, hi_db = range.items[1].n;
+        EXPECT_NEAR(lo_db, 20 * std::log10(thr / f["peak_m"].n), 1e-9);
+        EXPECT_NEAR(hi_db, 20 * std::log10(thr / std::max(f["max_whole_area_m"].n, f["max_other_foci_m"].n)), 1e-9);
+        EXPECT_LT(lo_db, hi_db);
+        EXPECT_LT(hi_db, 0);
+        char text[64];
+        std::snprintf(text, sizeof text, " %+.1f .. %+.1f FAIL: ", lo_db, hi_db);
+        EXPECT_NE(focus_line(r.err, uint32_t(f["id"].n)).find(text), std::string::npos) << r.err;
+        const int32_t index = haptic_table_find_focus(&t, uint32_t(f["id"].n));
+        ASSERT_GE(index, 0);
+        haptic_gain_range stored{};
+        ASSERT_EQ(haptic_table_gain_range(&t, uint32_t(index), &stored), 0);
+        EXPECT_NEAR(20 * std::log10(stored.lo), lo_db, 1e-9);
+        EXPECT_NEAR(20 * std::log10(stored.hi), hi_db, 1e-9);
+    }
+    haptic_table_close(&t);
+    EXPECT_NE(read_text(report / "index.html").find("<th>safe range (dB re the stored level)</th>"), std::string::npos);
+    EXPECT_NE(r.err.find("safe_range_dB verdict\n"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("verdict (whole area, all times): " + std::to_string(int(m["verdict"]["foci_passing"].n)) +
                          " of 2 foci pass: the table makes ghosts or misses the threshold (exit status 3)"),
               std::string::npos)
@@ -255,6 +285,11 @@ TEST_F(VerdictCli, CalibrateExits0WhenEveryFocusPasses)
         EXPECT_FALSE(f.has("failure"));
         EXPECT_NEAR(f["peak_m"].n, 5.7e-6, 0.05e-6);  // the level is set for the target amplitude
         EXPECT_LT(f["max_whole_area_m"].n, 5e-6);
+        // Passing at the stored level: the safe range holds 0 dB.
+        const Json &range = f["safe_range_db"];
+        ASSERT_EQ(range.items.size(), 2u) << range.s;
+        EXPECT_LE(range.items[0].n, 0);
+        EXPECT_TRUE(range.items[1].kind == Json::string ? range.items[1].s == "unbounded" : range.items[1].n > 0);
     }
     EXPECT_NE(r.err.find("verdict (whole area, all times): 2 of 2 foci pass\n"), std::string::npos) << r.err;
 }

@@ -2,6 +2,9 @@
 
 #include "io/format.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace calib::pipeline {
 
 std::string FocusMetrics::failure(double threshold_m) const
@@ -17,6 +20,32 @@ std::string FocusMetrics::failure(double threshold_m) const
         add(io::fmt("another focus reaches %.2f um, %+.1f dB over the threshold", max_other_foci_m * 1e6,
                     ratio_db(max_other_foci_m, threshold_m)));
     return why;
+}
+
+haptic_gain_range FocusMetrics::gain_range(double threshold_m) const
+{
+    // What passes() judges beyond lambda/2: the other foci, and the whole
+    // area where it was measured (the same terms, the same scope).
+    const double elsewhere = std::max(max_other_foci_m, whole_area ? max_whole_area_m : 0.0);
+    haptic_gain_range r{threshold_m / peak_m, elsewhere > 0 ? threshold_m / elsewhere : INFINITY};
+    // At g = 1 these are the verification's own comparisons (peak >= threshold,
+    // elsewhere < threshold), exactly: a correctly rounded quotient of doubles
+    // is <= 1 exactly when the dividend is <= the divisor (for a > b the
+    // quotient exceeds 1 by more than half an ulp of 1), so
+    // passes() == (lo <= 1 && 1 < hi) bit for bit.
+    if (!(r.lo <= HAPTIC_TABLE_RANGE_MAX_GAIN))
+        return {HAPTIC_TABLE_RANGE_MAX_GAIN, HAPTIC_TABLE_RANGE_MAX_GAIN};
+    if (r.hi > HAPTIC_TABLE_RANGE_MAX_GAIN)
+        r.hi = INFINITY;
+    return r;
+}
+
+std::string safe_range_text(const haptic_gain_range &r)
+{
+    if (!any_gain_passes(r))
+        return "none";
+    return io::fmt("%+.1f .. ", gain_db(r.lo)) +
+           (std::isinf(r.hi) ? std::string("unbounded") : io::fmt("%+.1f", gain_db(r.hi)));
 }
 
 VerdictSummary summarize_verdict(const std::vector<FocusMetrics> &foci)

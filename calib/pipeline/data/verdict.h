@@ -1,9 +1,12 @@
 // What the verification measures at each focus (FocusMetrics) and the
 // verdict on it (FocusMetrics::passes, the one rule every output and every
-// optimisation uses), the summary over the foci, and a verification whole:
-// per-focus figures, traces at the foci, fields for the report.
+// optimisation uses) with the gains over which it holds (gain_range), the
+// summary over the foci, and a verification whole: per-focus figures, traces
+// at the foci, fields for the report.
 #pragma once
 #include "pipeline/data/geometry.h"
+
+#include <haptic_table.h>
 
 #include <algorithm>
 #include <cmath>
@@ -66,6 +69,19 @@ struct FocusMetrics {
         return crosses_threshold && others_below_threshold && (!whole_area || whole_area_below_threshold);
     }
     const char *verdict_scope() const { return whole_area ? "whole area" : "foci only"; }
+    // The safe range: the gains g (applied to the stored samples, 1 = as
+    // stored) at which the focus passes the verdict above. The system is
+    // linear in the drive, so at gain g every |w| is g times the measured one
+    // and the verdict's three comparisons become lo <= g (g peak >= threshold)
+    // and g < hi (g x the largest |w| it judges beyond lambda/2 < threshold):
+    // lo = threshold / peak, hi = threshold / that largest |w| (+infinity
+    // where nothing it judges moves). lo >= hi: no gain passes. The one home
+    // of this rule: the table stores it (table_writer.cpp), every report
+    // shows it (safe_range_text). Gains past HAPTIC_TABLE_RANGE_MAX_GAIN (120
+    // dB, what a table holds) are none a device plays, since every nonzero
+    // int16 sample clips past 32767: hi beyond it is unbounded, and a focus
+    // that would need a lo beyond it passes at no gain ({max, max}).
+    haptic_gain_range gain_range(double threshold_m) const;
     // The focus's margin over what the verdict judges (dB): the whole-area
     // contrast, or over the other foci where only they were measured.
     double margin_db() const { return whole_area ? whole_area_contrast_db : other_foci_contrast_db; }
@@ -83,6 +99,15 @@ struct VerdictSummary {
     bool all_pass() const { return passing == total; }
 };
 VerdictSummary summarize_verdict(const std::vector<FocusMetrics> &foci);
+
+// Whether any gain passes: lo < hi (FocusMetrics::gain_range).
+inline bool any_gain_passes(const haptic_gain_range &r) { return r.lo < r.hi; }
+// A gain in dB relative to the stored level, 20 log10 g.
+inline double gain_db(double g) { return 20 * std::log10(g); }
+// The safe range as every output writes it, in dB relative to the stored
+// level: "-6.0 .. +4.4", "-6.0 .. unbounded" (hi = +infinity), "none"
+// (lo >= hi: no gain passes).
+std::string safe_range_text(const haptic_gain_range &r);
 
 struct Verification {
     std::vector<FocusMetrics> foci;
