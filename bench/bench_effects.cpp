@@ -102,7 +102,8 @@ void BM_Loss(benchmark::State &state)
     auto off = engine<T>(plate(n));
     for (auto _ : state)
         on->step();
-    report(state, [&] { on->step(); }, *off, n);
+    report(
+        state, [&] { on->step(); }, *off, n);
 }
 
 template <typename T>
@@ -111,11 +112,13 @@ void BM_Finger(benchmark::State &state)
     const int n = int(state.range(0));
     auto op = plate(n);
     auto on = engine<T>(op);
-    on->add_extension(std::make_unique<FingerExtension>(*on, FingerSpec{0.005, 1000, 1, 0.41 * n * 0.002, 0.37 * n * 0.002}));
+    on->add_extension(
+        std::make_unique<FingerExtension>(*on, FingerSpec{0.005, 1000, 1, 0.41 * n * 0.002, 0.37 * n * 0.002}));
     auto off = engine<T>(op);
     for (auto _ : state)
         on->step();
-    report(state, [&] { on->step(); }, *off, n);
+    report(
+        state, [&] { on->step(); }, *off, n);
 }
 
 template <typename T>
@@ -131,14 +134,15 @@ void BM_Exciter(benchmark::State &state)
     auto off = engine<T>(op);
     for (auto _ : state)
         on->step();
-    report(state, [&] { on->step(); }, *off, n);
+    report(
+        state, [&] { on->step(); }, *off, n);
 }
 
 void BM_ThickPlate(benchmark::State &state)
 {
     const int n = int(state.range(0));
     PlateParams p = plate(n)->params();
-    p.thickness_m = 0.008;  // where the effect matters
+    p.thickness_m = 0.008; // where the effect matters
     p.edges = Edges::all(EdgeKind::simply_supported);
     auto kop = std::make_shared<PlateOperator>(p, Grid{n, n, 0.002});
     auto mop = std::make_shared<MindlinOperator>(p, Grid{n, n, 0.002});
@@ -148,12 +152,13 @@ void BM_ThickPlate(benchmark::State &state)
     auto off = engine<double>(kop);
     for (auto _ : state)
         on.step();
-    report(state, [&] { on.step(); }, *off, n);
+    report(
+        state, [&] { on.step(); }, *off, n);
     // Per simulated second: steps scale as 1 / k.
     state.counters["x_off_per_second"] = state.counters["x_off"] * (off->time_step() / on.time_step());
 }
 
-}  // namespace
+} // namespace
 
 BENCHMARK(BM_Loss<float>)->Arg(128)->Arg(512)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Loss<double>)->Arg(128)->Arg(512)->Unit(benchmark::kMicrosecond);

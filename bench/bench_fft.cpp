@@ -99,7 +99,7 @@ void sizes(benchmark::internal::Benchmark *b)
         b->Arg(n);
 }
 
-}  // namespace
+} // namespace
 
 BENCHMARK(eigen_pair<float>)->Apply(sizes);
 BENCHMARK(fftw_pair<float, FFTW_ESTIMATE>)->Apply(sizes);

@@ -61,7 +61,7 @@ struct Levels {
 template <typename T>
 BulkCoefficients<T> coefficients()
 {
-    const double mu2 = 0.24 * 0.24;  // just inside mu = 1/4: stays bounded
+    const double mu2 = 0.24 * 0.24; // just inside mu = 1/4: stays bounded
     return {T(1), T(mu2), T(0)};
 }
 
@@ -187,7 +187,7 @@ void grids(benchmark::internal::Benchmark *b)
         b->Args({n});
 }
 
-}  // namespace
+} // namespace
 
 BENCHMARK(BM_Bulk<float>)->Apply(grids_threads)->UseRealTime();
 BENCHMARK(BM_Bulk<double>)->Apply(grids_threads)->UseRealTime();

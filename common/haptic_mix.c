@@ -21,8 +21,7 @@ void haptic_mix_block_peaks(const int16_t *signal, uint32_t frames, uint32_t cha
     }
 }
 
-uint32_t haptic_mix_peak_bound(const uint16_t *const *envelopes, uint32_t count, uint32_t blocks,
-                               uint32_t channels)
+uint32_t haptic_mix_peak_bound(const uint16_t *const *envelopes, uint32_t count, uint32_t blocks, uint32_t channels)
 {
     uint32_t best = 0;
     for (uint32_t b = 0; b < blocks; b++)

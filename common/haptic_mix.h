@@ -30,7 +30,7 @@
 extern "C" {
 #endif
 
-#define HAPTIC_MIX_PEAK_BLOCK 64u   /* frames per block of the peak envelope */
+#define HAPTIC_MIX_PEAK_BLOCK 64u    /* frames per block of the peak envelope */
 #define HAPTIC_MIX_GAIN_FRAC_BITS 30 /* gain in Q30: g < 16 and |sum s| <= 2^25 keep products < 2^60 */
 
 /* Blocks of the peak envelope of a signal of `frames` frames: ceil(frames / 64). */
@@ -42,8 +42,7 @@ uint32_t haptic_mix_blocks(uint32_t frames);
 void haptic_mix_block_peaks(const int16_t *signal, uint32_t frames, uint32_t channels, uint16_t *out);
 
 /* P(S): envelopes[k] is focus k's envelope (blocks * channels values). */
-uint32_t haptic_mix_peak_bound(const uint16_t *const *envelopes, uint32_t count, uint32_t blocks,
-                               uint32_t channels);
+uint32_t haptic_mix_peak_bound(const uint16_t *const *envelopes, uint32_t count, uint32_t blocks, uint32_t channels);
 
 typedef struct haptic_mix_gain {
     double energy, peak, gain; /* g_energy, g_peak, and g = the smallest of level g_energy, g_peak, the limit */

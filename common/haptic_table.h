@@ -27,9 +27,9 @@ extern "C" {
 #error "haptic_table: the payload is accessed in place and is little-endian; big-endian hosts are not supported"
 #endif
 
-#define HAPTIC_TABLE_MAGIC "HAPTBL\r\n"          /* 8 bytes, no terminator */
+#define HAPTIC_TABLE_MAGIC "HAPTBL\r\n" /* 8 bytes, no terminator */
 #define HAPTIC_TABLE_VERSION_MAJOR 1u
-#define HAPTIC_TABLE_VERSION_MINOR 3u            /* newest minor this code writes and fully checks */
+#define HAPTIC_TABLE_VERSION_MINOR 3u /* newest minor this code writes and fully checks */
 #define HAPTIC_TABLE_HEADER_SIZE 128u
 #define HAPTIC_TABLE_CHANNEL_RECORD_SIZE 16u
 #define HAPTIC_TABLE_FOCUS_RECORD_SIZE 48u
@@ -41,7 +41,7 @@ extern "C" {
 /* Limits a reader enforces; a writer refuses to exceed them too. */
 #define HAPTIC_TABLE_MAX_CHANNELS 32u
 #define HAPTIC_TABLE_MAX_FOCI 1024u
-#define HAPTIC_TABLE_MAX_SAMPLES (1u << 22)      /* per signal: 87 s at 48 kHz */
+#define HAPTIC_TABLE_MAX_SAMPLES (1u << 22) /* per signal: 87 s at 48 kHz */
 #define HAPTIC_TABLE_MIN_RATE_HZ 1000u
 #define HAPTIC_TABLE_MAX_RATE_HZ 768000u
 #define HAPTIC_TABLE_MAX_FILE_SIZE ((uint64_t)1 << 31) /* 2 GiB */
@@ -54,12 +54,12 @@ extern "C" {
 #define HAPTIC_TABLE_FLAG_RANGE 0x00040000u
 
 /* The range section's limits (a reader refuses values outside them). */
-#define HAPTIC_TABLE_RANGE_MAX_GAIN 1e6            /* lo <= this; hi <= this or +infinity */
+#define HAPTIC_TABLE_RANGE_MAX_GAIN 1e6 /* lo <= this; hi <= this or +infinity */
 
 /* The panel section's ranges (a reader refuses values outside them). */
 #define HAPTIC_TABLE_PANEL_MIN_TEMPERATURE_C (-100.0)
 #define HAPTIC_TABLE_PANEL_MAX_TEMPERATURE_C 300.0
-#define HAPTIC_TABLE_PANEL_MAX_YOUNGS_PER_K 0.05   /* |dE/E/dT|, 1/K: 5 %/K, ten times a polymer's */
+#define HAPTIC_TABLE_PANEL_MAX_YOUNGS_PER_K 0.05 /* |dE/E/dT|, 1/K: 5 %/K, ten times a polymer's */
 
 /* The off-diagonal Gram elements are checked against the payload when the
  * products this takes, K (K - 1) / 2 * N * C, are at most this many: 169 foci
@@ -90,31 +90,31 @@ enum haptic_drive_kind {
 
 enum haptic_table_status {
     HAPTIC_TABLE_OK = 0,
-    HAPTIC_TABLE_EIO = -1,        /* open/read/write/rename failed (errno in message) */
-    HAPTIC_TABLE_ENOMEM = -2,     /* the single file buffer could not be allocated */
-    HAPTIC_TABLE_ETRUNC = -3,     /* file shorter than its header or sections say */
-    HAPTIC_TABLE_EMAGIC = -4,     /* not a haptic table */
-    HAPTIC_TABLE_EVERSION = -5,   /* format version this reader cannot read */
-    HAPTIC_TABLE_EFIELD = -6,     /* a header or record field out of its allowed range */
-    HAPTIC_TABLE_ELAYOUT = -7,    /* section offsets/sizes inconsistent */
-    HAPTIC_TABLE_ECRC = -8,       /* CRC-32 mismatch */
-    HAPTIC_TABLE_EGRAM = -9,      /* Gram matrix inconsistent (asymmetric, non-finite, energy) */
-    HAPTIC_TABLE_EINVAL = -10,    /* bad argument to the API (writer spec, NULL pointer) */
-    HAPTIC_TABLE_ETOOBIG = -11,   /* file larger than HAPTIC_TABLE_MAX_FILE_SIZE */
+    HAPTIC_TABLE_EIO = -1,      /* open/read/write/rename failed (errno in message) */
+    HAPTIC_TABLE_ENOMEM = -2,   /* the single file buffer could not be allocated */
+    HAPTIC_TABLE_ETRUNC = -3,   /* file shorter than its header or sections say */
+    HAPTIC_TABLE_EMAGIC = -4,   /* not a haptic table */
+    HAPTIC_TABLE_EVERSION = -5, /* format version this reader cannot read */
+    HAPTIC_TABLE_EFIELD = -6,   /* a header or record field out of its allowed range */
+    HAPTIC_TABLE_ELAYOUT = -7,  /* section offsets/sizes inconsistent */
+    HAPTIC_TABLE_ECRC = -8,     /* CRC-32 mismatch */
+    HAPTIC_TABLE_EGRAM = -9,    /* Gram matrix inconsistent (asymmetric, non-finite, energy) */
+    HAPTIC_TABLE_EINVAL = -10,  /* bad argument to the API (writer spec, NULL pointer) */
+    HAPTIC_TABLE_ETOOBIG = -11, /* file larger than HAPTIC_TABLE_MAX_FILE_SIZE */
 };
 
 typedef struct haptic_table_error {
-    int code;                 /* enum haptic_table_status */
-    uint64_t offset;          /* byte offset the message refers to (0 if none) */
-    char message[200];        /* one line, no trailing newline */
+    int code;          /* enum haptic_table_status */
+    uint64_t offset;   /* byte offset the message refers to (0 if none) */
+    char message[200]; /* one line, no trailing newline */
 } haptic_table_error;
 
 typedef struct haptic_focus_info {
-    uint32_t id;              /* user-visible focus id (scene order, not necessarily 0..K-1) */
-    double x_m, y_m;          /* focus position on the plate, metres, plate origin at a corner */
-    double scale_m;           /* focal peak |displacement| (m) predicted when the stored samples play at gain 1 */
-    double energy;            /* sum over channels and samples of s^2 (s in counts) = Gram[f][f] */
-    double lead_time_s;       /* playback start (frame 0) to the focal peak, s; NaN if unknown */
+    uint32_t id;        /* user-visible focus id (scene order, not necessarily 0..K-1) */
+    double x_m, y_m;    /* focus position on the plate, metres, plate origin at a corner */
+    double scale_m;     /* focal peak |displacement| (m) predicted when the stored samples play at gain 1 */
+    double energy;      /* sum over channels and samples of s^2 (s in counts) = Gram[f][f] */
+    double lead_time_s; /* playback start (frame 0) to the focal peak, s; NaN if unknown */
 } haptic_focus_info;
 
 typedef struct haptic_provenance {
@@ -126,9 +126,9 @@ typedef struct haptic_provenance {
 
 /* A validated table: a view into one buffer. Treat the fields as read-only. */
 typedef struct haptic_table {
-    const uint8_t *data;      /* whole file */
+    const uint8_t *data; /* whole file */
     size_t size;
-    void *owned;              /* buffer to free on close (NULL for a caller's buffer) */
+    void *owned; /* buffer to free on close (NULL for a caller's buffer) */
     uint16_t format_minor;
     uint32_t flags;
     uint32_t sample_rate_hz;
@@ -137,7 +137,7 @@ typedef struct haptic_table {
     uint32_t focus_count;
     uint32_t samples_per_signal;
     uint64_t channels_offset, foci_offset, gram_offset, provenance_offset, payload_offset;
-    uint64_t playback_offset;  /* 0 without a playback section */
+    uint64_t playback_offset; /* 0 without a playback section */
     uint32_t crc32;
     double force_full_scale_n; /* force (N) of sample 32767 at gain 1; NaN if unknown */
     uint16_t drive_kind;       /* enum haptic_drive_kind */
@@ -150,8 +150,8 @@ typedef struct haptic_table {
  * (haptic_stretch.h): the speed ratio at temperature T is
  * sqrt(1 + youngs_per_k (T - temperature_c)). */
 typedef struct haptic_panel {
-    double temperature_c;      /* the plate's temperature in the calibration, degrees Celsius */
-    double youngs_per_k;       /* the plate's relative change of Young's modulus per kelvin (dE/E/dT, 1/K) */
+    double temperature_c; /* the plate's temperature in the calibration, degrees Celsius */
+    double youngs_per_k;  /* the plate's relative change of Young's modulus per kelvin (dE/E/dT, 1/K) */
 } haptic_panel;
 
 /* Where the verdict behind a range section looked (1.3). */
@@ -187,9 +187,9 @@ void haptic_gain_range_intersect(haptic_gain_range *acc, const haptic_gain_range
 
 /* Writer input for the range section (1.3). */
 typedef struct haptic_range_spec {
-    double threshold_m;              /* the verdict's threshold (m), finite, 0 < t <= 1000 */
-    uint16_t scope;                  /* enum haptic_range_scope */
-    const haptic_gain_range *focus;  /* [focus_count], in the order of the foci */
+    double threshold_m;             /* the verdict's threshold (m), finite, 0 < t <= 1000 */
+    uint16_t scope;                 /* enum haptic_range_scope */
+    const haptic_gain_range *focus; /* [focus_count], in the order of the foci */
 } haptic_range_spec;
 
 /* Writer input. The writer computes the Gram matrix and energies itself. */
@@ -198,11 +198,11 @@ typedef struct haptic_table_spec {
     uint16_t channel_count;
     uint32_t focus_count;
     uint32_t samples_per_signal;
-    const double *channel_xy_m;      /* [channel_count][2] exciter positions */
-    const uint32_t *focus_id;        /* [focus_count] */
-    const double *focus_xy_m;        /* [focus_count][2] */
-    const double *focus_scale_m;     /* [focus_count] */
-    const int16_t *samples;          /* [focus][sample][channel], i.e. interleaved frames */
+    const double *channel_xy_m;  /* [channel_count][2] exciter positions */
+    const uint32_t *focus_id;    /* [focus_count] */
+    const double *focus_xy_m;    /* [focus_count][2] */
+    const double *focus_scale_m; /* [focus_count] */
+    const int16_t *samples;      /* [focus][sample][channel], i.e. interleaved frames */
     const char *scene_name, *scene_hash, *tool_version, *created_utc; /* may be NULL (empty) */
     /* Playback section (1.1), written when drive_kind != HAPTIC_DRIVE_UNKNOWN;
      * then force_full_scale_n and focus_lead_time_s are required. */
@@ -233,7 +233,7 @@ void haptic_table_close(haptic_table *t);
 /* Accessors (the table must be validated; indices are checked, out of range returns error/NULL). */
 int haptic_table_focus(const haptic_table *t, uint32_t index, haptic_focus_info *out);
 int haptic_table_channel_position(const haptic_table *t, uint32_t channel, double *x_m, double *y_m);
-double haptic_table_gram(const haptic_table *t, uint32_t i, uint32_t j);   /* NaN if out of range */
+double haptic_table_gram(const haptic_table *t, uint32_t i, uint32_t j); /* NaN if out of range */
 /* The Gram matrix of K signals of n int16 samples each (signal f at
  * signals + f n) into gram[K][K], row-major: exact integer inner products
  * rounded once to double, as a table's own (for drives derived from a

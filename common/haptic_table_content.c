@@ -34,12 +34,13 @@ static int check_reserved(const uint8_t *b, const haptic_table *t, haptic_table_
                            (t->format_minor >= 2 ? HAPTIC_TABLE_FLAG_PANEL : 0) |
                            (t->format_minor >= 3 ? HAPTIC_TABLE_FLAG_RANGE : 0);
     if (t->flags & ~FLAGS_REQUIRED_MASK & ~known)
-        return fail(err, HAPTIC_TABLE_EFIELD, OFF_FLAGS, "offset %d (flags): optional bits 0x%08lx unknown in version 1.%u",
-                    OFF_FLAGS, (unsigned long)(t->flags & ~FLAGS_REQUIRED_MASK & ~known), (unsigned)t->format_minor);
+        return fail(err, HAPTIC_TABLE_EFIELD, OFF_FLAGS,
+                    "offset %d (flags): optional bits 0x%08lx unknown in version 1.%u", OFF_FLAGS,
+                    (unsigned long)(t->flags & ~FLAGS_REQUIRED_MASK & ~known), (unsigned)t->format_minor);
     int rc;
     /* An absent section's offset field is reserved (zero) too. */
-    if (!t->playback_offset && (rc = zero_bytes(b, OFF_PLAYBACK_OFFSET, OFF_PLAYBACK_OFFSET + 8, "header reserved",
-                                                err)))
+    if (!t->playback_offset &&
+        (rc = zero_bytes(b, OFF_PLAYBACK_OFFSET, OFF_PLAYBACK_OFFSET + 8, "header reserved", err)))
         return rc;
     if (!t->panel_offset && (rc = zero_bytes(b, OFF_PANEL_OFFSET, OFF_PANEL_OFFSET + 8, "header reserved", err)))
         return rc;
@@ -48,7 +49,9 @@ static int check_reserved(const uint8_t *b, const haptic_table *t, haptic_table_
     if ((rc = zero_bytes(b, OFF_HEADER_RESERVED, HAPTIC_TABLE_HEADER_SIZE, "header reserved", err)))
         return rc;
     /* Sections in file order with their sizes; gaps lie between them. */
-    struct { uint64_t off, size; } s[8] = {
+    struct {
+        uint64_t off, size;
+    } s[8] = {
         {t->channels_offset, (uint64_t)t->channel_count * HAPTIC_TABLE_CHANNEL_RECORD_SIZE},
         {t->foci_offset, (uint64_t)t->focus_count * HAPTIC_TABLE_FOCUS_RECORD_SIZE},
         {t->gram_offset, (uint64_t)t->focus_count * t->focus_count * 8},
@@ -61,7 +64,7 @@ static int check_reserved(const uint8_t *b, const haptic_table *t, haptic_table_
     uint64_t end = HAPTIC_TABLE_HEADER_SIZE;
     for (int i = 0; i < 8; i++) {
         if (s[i].off == 0)
-            continue;  /* an absent section */
+            continue; /* an absent section */
         if ((rc = zero_bytes(b, end, s[i].off, "gap between sections", err)))
             return rc;
         end = s[i].off + s[i].size;
@@ -106,8 +109,7 @@ static int check_foci(const uint8_t *b, const haptic_table *t, haptic_table_erro
         for (uint32_t g = 0; g < f; g++)
             if (rd32(b + t->foci_offset + (uint64_t)g * HAPTIC_TABLE_FOCUS_RECORD_SIZE + FOC_ID) == id)
                 return fail(err, HAPTIC_TABLE_EFIELD, off + FOC_ID, "offset %llu (focus %lu id): %lu repeats focus %lu",
-                            (unsigned long long)(off + FOC_ID), (unsigned long)f, (unsigned long)id,
-                            (unsigned long)g);
+                            (unsigned long long)(off + FOC_ID), (unsigned long)f, (unsigned long)id, (unsigned long)g);
         double energy = rdf64(r + FOC_ENERGY);
         double diag = gram_at(b, t, f, f);
         if (!(energy > 0.0) || !isfinite(energy) || energy != diag)
@@ -324,7 +326,10 @@ static long created_fault(const uint8_t *p, size_t n)
     }
     if (n != sizeof form - 1)
         return (long)(sizeof form - 1);
-    struct { size_t at; int lo, hi; } ranges[] = {{5, 1, 12}, {8, 1, 31}, {11, 0, 23}, {14, 0, 59}, {17, 0, 60}};
+    struct {
+        size_t at;
+        int lo, hi;
+    } ranges[] = {{5, 1, 12}, {8, 1, 31}, {11, 0, 23}, {14, 0, 59}, {17, 0, 60}};
     for (size_t k = 0; k < sizeof ranges / sizeof *ranges; k++) {
         int v = (p[ranges[k].at] - '0') * 10 + (p[ranges[k].at + 1] - '0');
         if (v < ranges[k].lo || v > ranges[k].hi)
@@ -335,9 +340,13 @@ static long created_fault(const uint8_t *p, size_t n)
 
 static int check_provenance(const uint8_t *b, const haptic_table *t, haptic_table_error *err)
 {
-    static const struct { unsigned off; const char *name; } fields[] = {
-        {PROV_SCENE_NAME, "scene_name"}, {PROV_SCENE_HASH, "scene_hash"},
-        {PROV_TOOL_VERSION, "tool_version"}, {PROV_CREATED, "created_utc"}};
+    static const struct {
+        unsigned off;
+        const char *name;
+    } fields[] = {{PROV_SCENE_NAME, "scene_name"},
+                  {PROV_SCENE_HASH, "scene_hash"},
+                  {PROV_TOOL_VERSION, "tool_version"},
+                  {PROV_CREATED, "created_utc"}};
     for (int i = 0; i < 4; i++) {
         const uint64_t off = t->provenance_offset + fields[i].off;
         const uint8_t *p = b + off;

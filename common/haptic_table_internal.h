@@ -72,7 +72,11 @@ static inline double rdf64(const uint8_t *p)
     memcpy(&d, &u, sizeof d);
     return d;
 }
-static inline void wr16(uint8_t *p, uint16_t v) { p[0] = (uint8_t)v; p[1] = (uint8_t)(v >> 8); }
+static inline void wr16(uint8_t *p, uint16_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+}
 static inline void wr32(uint8_t *p, uint32_t v)
 {
     for (int i = 0; i < 4; i++)

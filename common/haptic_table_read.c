@@ -31,29 +31,46 @@ int haptic_table_fail_(haptic_table_error *err, int code, uint64_t offset, const
 const char *haptic_table_error_string(int code)
 {
     switch (code) {
-    case HAPTIC_TABLE_OK: return "ok";
-    case HAPTIC_TABLE_EIO: return "I/O error";
-    case HAPTIC_TABLE_ENOMEM: return "out of memory";
-    case HAPTIC_TABLE_ETRUNC: return "truncated table";
-    case HAPTIC_TABLE_EMAGIC: return "not a haptic table (bad magic)";
-    case HAPTIC_TABLE_EVERSION: return "unsupported table format version";
-    case HAPTIC_TABLE_EFIELD: return "field out of range";
-    case HAPTIC_TABLE_ELAYOUT: return "inconsistent section layout";
-    case HAPTIC_TABLE_ECRC: return "CRC-32 mismatch (corrupted table)";
-    case HAPTIC_TABLE_EGRAM: return "inconsistent Gram matrix";
-    case HAPTIC_TABLE_EINVAL: return "invalid argument";
-    case HAPTIC_TABLE_ETOOBIG: return "table too large";
-    default: return "unknown error";
+    case HAPTIC_TABLE_OK:
+        return "ok";
+    case HAPTIC_TABLE_EIO:
+        return "I/O error";
+    case HAPTIC_TABLE_ENOMEM:
+        return "out of memory";
+    case HAPTIC_TABLE_ETRUNC:
+        return "truncated table";
+    case HAPTIC_TABLE_EMAGIC:
+        return "not a haptic table (bad magic)";
+    case HAPTIC_TABLE_EVERSION:
+        return "unsupported table format version";
+    case HAPTIC_TABLE_EFIELD:
+        return "field out of range";
+    case HAPTIC_TABLE_ELAYOUT:
+        return "inconsistent section layout";
+    case HAPTIC_TABLE_ECRC:
+        return "CRC-32 mismatch (corrupted table)";
+    case HAPTIC_TABLE_EGRAM:
+        return "inconsistent Gram matrix";
+    case HAPTIC_TABLE_EINVAL:
+        return "invalid argument";
+    case HAPTIC_TABLE_ETOOBIG:
+        return "table too large";
+    default:
+        return "unknown error";
     }
 }
 
 const char *haptic_drive_kind_name(int kind)
 {
     switch (kind) {
-    case HAPTIC_DRIVE_FORCE: return "force on the plate";
-    case HAPTIC_DRIVE_EXCITER: return "exciter drive (Bl i)";
-    case HAPTIC_DRIVE_EXCITER_PRECOMPENSATED: return "exciter drive (Bl i), pre-compensated";
-    default: return "unknown";
+    case HAPTIC_DRIVE_FORCE:
+        return "force on the plate";
+    case HAPTIC_DRIVE_EXCITER:
+        return "exciter drive (Bl i)";
+    case HAPTIC_DRIVE_EXCITER_PRECOMPENSATED:
+        return "exciter drive (Bl i), pre-compensated";
+    default:
+        return "unknown";
     }
 }
 
@@ -61,8 +78,8 @@ static int check_range_u32(haptic_table_error *err, uint64_t off, const char *fi
                            uint32_t hi)
 {
     if (v < lo || v > hi)
-        return fail(err, HAPTIC_TABLE_EFIELD, off, "offset %llu (%s): %lu is outside %lu..%lu",
-                    (unsigned long long)off, field, (unsigned long)v, (unsigned long)lo, (unsigned long)hi);
+        return fail(err, HAPTIC_TABLE_EFIELD, off, "offset %llu (%s): %lu is outside %lu..%lu", (unsigned long long)off,
+                    field, (unsigned long)v, (unsigned long)lo, (unsigned long)hi);
     return 0;
 }
 
@@ -120,8 +137,9 @@ static int check_header(const uint8_t *b, size_t size, haptic_table *t, uint32_t
         return rc;
     t->sample_format = rd16(b + OFF_SAMPLE_FORMAT);
     if (t->sample_format != HAPTIC_SAMPLE_S16LE)
-        return fail(err, HAPTIC_TABLE_EFIELD, OFF_SAMPLE_FORMAT, "offset %d (sample_format): %u, only 1 (S16LE) is known",
-                    OFF_SAMPLE_FORMAT, (unsigned)t->sample_format);
+        return fail(err, HAPTIC_TABLE_EFIELD, OFF_SAMPLE_FORMAT,
+                    "offset %d (sample_format): %u, only 1 (S16LE) is known", OFF_SAMPLE_FORMAT,
+                    (unsigned)t->sample_format);
     t->focus_count = rd32(b + OFF_FOCUS_COUNT);
     if ((rc = check_range_u32(err, OFF_FOCUS_COUNT, "focus_count", t->focus_count, 1, HAPTIC_TABLE_MAX_FOCI)))
         return rc;
@@ -171,8 +189,8 @@ static int check_layout(const uint8_t *b, uint64_t file_size, uint32_t header_si
                             t->channels_offset + want.channels_size, 8, limit)) ||
         (rc = check_section(err, OFF_GRAM_OFFSET, "gram_offset", t->gram_offset, want.gram_size,
                             t->foci_offset + want.foci_size, 8, limit)) ||
-        (rc = check_section(err, OFF_PROVENANCE_OFFSET, "provenance_offset", t->provenance_offset,
-                            want.provenance_size, t->gram_offset + want.gram_size, 8, limit)))
+        (rc = check_section(err, OFF_PROVENANCE_OFFSET, "provenance_offset", t->provenance_offset, want.provenance_size,
+                            t->gram_offset + want.gram_size, 8, limit)))
         return rc;
     uint64_t end = t->provenance_offset + want.provenance_size;
     if (playback) {
@@ -184,15 +202,15 @@ static int check_layout(const uint8_t *b, uint64_t file_size, uint32_t header_si
     }
     if (panel) {
         t->panel_offset = rd64(b + OFF_PANEL_OFFSET);
-        if ((rc = check_section(err, OFF_PANEL_OFFSET, "panel_offset", t->panel_offset, want.panel_size, end, 8,
-                                limit)))
+        if ((rc =
+                 check_section(err, OFF_PANEL_OFFSET, "panel_offset", t->panel_offset, want.panel_size, end, 8, limit)))
             return rc;
         end = t->panel_offset + want.panel_size;
     }
     if (range) {
         t->range_offset = rd64(b + OFF_RANGE_OFFSET);
-        if ((rc = check_section(err, OFF_RANGE_OFFSET, "range_offset", t->range_offset, want.range_size, end, 8,
-                                limit)))
+        if ((rc =
+                 check_section(err, OFF_RANGE_OFFSET, "range_offset", t->range_offset, want.range_size, end, 8, limit)))
             return rc;
         end = t->range_offset + want.range_size;
     }
@@ -383,10 +401,7 @@ double haptic_table_lead_time_s(const haptic_table *t, uint32_t index)
     return rdf64(t->data + t->playback_offset + PLAY_LEAD_TIMES + (uint64_t)index * 8);
 }
 
-double haptic_table_force_full_scale_n(const haptic_table *t)
-{
-    return t && t->data ? t->force_full_scale_n : NAN;
-}
+double haptic_table_force_full_scale_n(const haptic_table *t) { return t && t->data ? t->force_full_scale_n : NAN; }
 
 int haptic_table_drive_kind(const haptic_table *t) { return t && t->data ? t->drive_kind : HAPTIC_DRIVE_UNKNOWN; }
 
@@ -428,8 +443,8 @@ const int16_t *haptic_table_signal(const haptic_table *t, uint32_t focus)
         return NULL;
     /* The payload offset is 64-aligned in the file and the buffer comes from
      * malloc (or the caller), so the int16 view is aligned. */
-    const void *p = t->data + t->payload_offset +
-                    (uint64_t)focus * t->samples_per_signal * t->channel_count * sizeof(int16_t);
+    const void *p =
+        t->data + t->payload_offset + (uint64_t)focus * t->samples_per_signal * t->channel_count * sizeof(int16_t);
     return (const int16_t *)p;
 }
 

@@ -31,16 +31,20 @@ int haptic_table_print_summary(const haptic_table *t, const char *path, FILE *ou
                 haptic_drive_kind_name(haptic_table_drive_kind(t)), force, force / 32767.0);
     haptic_panel panel;
     if (haptic_table_panel(t, &panel) == 0)
-        fprintf(out, "panel        calibrated at %.1f C, dE/E/dT %+.3g %%/K (hapticd's [panel] plays it at the panel's "
-                     "temperature)\n", panel.temperature_c, 100 * panel.youngs_per_k);
+        fprintf(out,
+                "panel        calibrated at %.1f C, dE/E/dT %+.3g %%/K (hapticd's [panel] plays it at the panel's "
+                "temperature)\n",
+                panel.temperature_c, 100 * panel.youngs_per_k);
     else
         fprintf(out, "panel        unknown (no panel section: no temperature compensation from this table)\n");
     const double threshold = haptic_table_range_threshold_m(t);
     if (isnan(threshold))
         fprintf(out, "range        unknown (no range section: hapticd plays any level unclamped)\n");
     else
-        fprintf(out, "range        threshold %.3g um over %s; per focus 'safe': the gains it passes at (dB, 0 = as "
-                     "stored)\n", 1e6 * threshold,
+        fprintf(out,
+                "range        threshold %.3g um over %s; per focus 'safe': the gains it passes at (dB, 0 = as "
+                "stored)\n",
+                1e6 * threshold,
                 haptic_table_range_scope(t) == HAPTIC_RANGE_WHOLE_AREA ? "the whole active area (scope 1)"
                                                                        : "the other foci only (scope 2)");
     for (uint32_t c = 0; c < t->channel_count; c++) {
@@ -73,7 +77,9 @@ int haptic_table_print_summary(const haptic_table *t, const char *path, FILE *ou
                 (unsigned long)fi.id, 1e3 * fi.x_m, 1e3 * fi.y_m, 1e6 * fi.scale_m, rms, lead, safe);
     }
     if (lead_min <= lead_max)
-        fprintf(out, "lead time    %.1f..%.1f ms from playback start to the focal peak (add the input and audio "
-                     "latency for touch to focus)\n", 1e3 * lead_min, 1e3 * lead_max);
+        fprintf(out,
+                "lead time    %.1f..%.1f ms from playback start to the focal peak (add the input and audio "
+                "latency for touch to focus)\n",
+                1e3 * lead_min, 1e3 * lead_max);
     return 0;
 }

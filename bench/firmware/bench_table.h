@@ -25,9 +25,16 @@ static int bench_table_write(const char *path, uint32_t foci, uint32_t samples)
         fxy[2 * f] = fxy[2 * f + 1] = 0.1 + 0.05 * f;
         scale[f] = 1e-5;
     }
-    haptic_table_spec spec = {.sample_rate_hz = 48000, .channel_count = C, .focus_count = foci,
-                              .samples_per_signal = samples, .channel_xy_m = cxy, .focus_id = ids,
-                              .focus_xy_m = fxy, .focus_scale_m = scale, .samples = s, .scene_name = "bench"};
+    haptic_table_spec spec = {.sample_rate_hz = 48000,
+                              .channel_count = C,
+                              .focus_count = foci,
+                              .samples_per_signal = samples,
+                              .channel_xy_m = cxy,
+                              .focus_id = ids,
+                              .focus_xy_m = fxy,
+                              .focus_scale_m = scale,
+                              .samples = s,
+                              .scene_name = "bench"};
     haptic_table_error err;
     int rc = haptic_table_write(path, &spec, &err);
     free(s), free(fxy), free(scale), free(ids);

@@ -46,13 +46,15 @@ int main(int argc, char **argv)
     if (bench_table_write(table, 9, 480) || mkfifo(fifo, 0600))
         return 1;
     FILE *bf = fopen(board, "w");
-    fprintf(bf, "[alsa]\ndevice = hostsim\nconfig = %.*s/asoundrc\nperiod_frames = %s\npacing = clock\nrewind = %s\n"
-                "[realtime]\nmlock = false\n%s",
+    fprintf(bf,
+            "[alsa]\ndevice = hostsim\nconfig = %.*s/asoundrc\nperiod_frames = %s\npacing = clock\nrewind = %s\n"
+            "[realtime]\nmlock = false\n%s",
             (int)(strrchr(HOSTSIM_BOARD, '/') - HOSTSIM_BOARD), HOSTSIM_BOARD, period, rewind ? "true" : "false",
             protect ? "[exciters]\nrated_power_w = 1000\nimpedance_ohm = 4\n[amplifier]\nfull_scale_v = 10\n" : "");
     fclose(bf);
-    char *args[] = {"hapticd", "--board", board, "--table", table, "--triggers", fifo, "--alsa-device", device,
-                    "--latency-report", report, "--rt-priority", (char *)prio, NULL};
+    char *args[] = {
+        "hapticd", "--board",          board,  "--table",       table,        "--triggers", fifo, "--alsa-device",
+        device,    "--latency-report", report, "--rt-priority", (char *)prio, NULL};
     pid_t pid;
     if (posix_spawn(&pid, HAPTICD_EXE, NULL, NULL, args, environ))
         return 1;

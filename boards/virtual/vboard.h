@@ -34,9 +34,9 @@ struct vb_expect {
     const char *name;
     uint32_t index[2];
     unsigned count;
-    uint64_t t_ns;            /* CLOCK_MONOTONIC of the trigger (FIFO write or kernel input event) */
-    double latency_s;         /* out: voice start on the capture's clock minus t_ns */
-    int found;                /* out */
+    uint64_t t_ns;    /* CLOCK_MONOTONIC of the trigger (FIFO write or kernel input event) */
+    double latency_s; /* out: voice start on the capture's clock minus t_ns */
+    int found;        /* out */
 };
 
 struct vb_capture;
@@ -63,20 +63,19 @@ struct vb_capture {
     snd_pcm_t *pcm;
     unsigned channels, rate_hz;
     snd_pcm_uframes_t period_frames, buffer_frames;
-    int32_t *frames;          /* [frame][channel], S32 as played */
+    int32_t *frames; /* [frame][channel], S32 as played */
     size_t capacity;
     _Atomic size_t count;
     struct vb_segment segments[VB_MAX_SEGMENTS];
     _Atomic unsigned segment_count;
     _Atomic unsigned overruns;
-    _Atomic int stall_ms;     /* the reader sleeps this long once (an overrun on purpose) */
+    _Atomic int stall_ms; /* the reader sleeps this long once (an overrun on purpose) */
     _Atomic int stop;
-    int error;                /* the ALSA error that ended the reader, 0 if none */
-    unsigned tick_hz;         /* snd-aloop's timer (the kernel's HZ); 0: unknown */
+    int error;        /* the ALSA error that ended the reader, 0 if none */
+    unsigned tick_hz; /* snd-aloop's timer (the kernel's HZ); 0: unknown */
 };
 
-int vb_capture_open(struct vb_capture *c, const char *device, unsigned channels, unsigned rate_hz,
-                    double seconds);
+int vb_capture_open(struct vb_capture *c, const char *device, unsigned channels, unsigned rate_hz, double seconds);
 int vb_capture_start(struct vb_capture *c); /* reader thread at SCHED_FIFO when allowed */
 void vb_capture_stop(struct vb_capture *c);
 void vb_capture_close(struct vb_capture *c);
@@ -94,8 +93,8 @@ double vb_capture_time_ns(const struct vb_capture *c, size_t i, int delivered);
 #define VB_TOUCH_Y_MAX 4095
 
 struct vb_touch {
-    int uinput_fd;            /* the device we write */
-    int evdev_fd;             /* its /dev/input/eventN, read back for the kernel's timestamps */
+    int uinput_fd; /* the device we write */
+    int evdev_fd;  /* its /dev/input/eventN, read back for the kernel's timestamps */
     char evdev_path[64];
 };
 

@@ -23,8 +23,7 @@ uint64_t vb_now_ns(void)
     return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
 }
 
-int vb_capture_open(struct vb_capture *c, const char *device, unsigned channels, unsigned rate_hz,
-                    double seconds)
+int vb_capture_open(struct vb_capture *c, const char *device, unsigned channels, unsigned rate_hz, double seconds)
 {
     memset(c, 0, sizeof *c);
     c->channels = channels;

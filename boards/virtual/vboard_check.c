@@ -27,10 +27,7 @@ void vb_result(int ok, const char *name, const char *fmt, ...)
     failed += !ok;
 }
 
-unsigned vb_failed(void)
-{
-    return failed;
-}
+unsigned vb_failed(void) { return failed; }
 
 int vb_make_table(const char *path)
 {
@@ -180,7 +177,8 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
             (frame_silent(cap->frames + pos * C, C) || frame_stale(cap, pos, underrun_frames))) {
             gap_at = n;
             size_t gap_start = pos;
-            for (; pos < to && (frame_silent(cap->frames + pos * C, C) || frame_stale(cap, pos, underrun_frames)); pos++) {
+            for (; pos < to && (frame_silent(cap->frames + pos * C, C) || frame_stale(cap, pos, underrun_frames));
+                 pos++) {
                 gap_frames++;
                 stale += frame_stale(cap, pos, underrun_frames);
             }
@@ -206,8 +204,7 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
         }
     }
     size_t tail = pos + cap->rate_hz / 10;
-    if (n < N || tail > to ||
-        (seg + 1 < cap->segments + atomic_load(&cap->segment_count) && tail > (seg + 1)->start)) {
+    if (n < N || tail > to || (seg + 1 < cap->segments + atomic_load(&cap->segment_count) && tail > (seg + 1)->start)) {
         vb_result(0, e->name, "the voice at capture frame %zu is cut (overrun or end of the recording)", onset);
         return;
     }
@@ -232,7 +229,8 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
                 match = (int)f;
         }
         snprintf(stray_text, sizeof stray_text, " (from %.1f ms after the voice start%s%d)",
-                 1e3 * (double)(first_stray - start) / cap->rate_hz, match >= 0 ? ", focus index " : ", no focus alone: ", match);
+                 1e3 * (double)(first_stray - start) / cap->rate_hz,
+                 match >= 0 ? ", focus index " : ", no focus alone: ", match);
     }
     e->found = 1;
     e->latency_s = (vb_capture_time_ns(cap, start, 1) - (double)e->t_ns) / 1e9;

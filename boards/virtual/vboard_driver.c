@@ -46,7 +46,7 @@ extern char **environ;
 
 struct run {
     const char *hapticd, *board, *table_path;
-    const char *log;                     /* hapticd's stderr (LOG_PATH, or FAILING_LOG_PATH) */
+    const char *log; /* hapticd's stderr (LOG_PATH, or FAILING_LOG_PATH) */
     int touch;
     unsigned tick_hz;
     haptic_table table;
@@ -55,7 +55,7 @@ struct run {
     struct vb_capture cap;
     struct vb_touch panel;
     struct vb_expect expect[MAX_EXPECT];
-    unsigned expect_count, touch_first;  /* expect[touch_first..] are touches */
+    unsigned expect_count, touch_first; /* expect[touch_first..] are touches */
 };
 
 static void sleep_ms(int ms)
@@ -89,8 +89,8 @@ static int start_hapticd(struct run *r, const char *out_path)
     unlink(FIFO_PATH);
     if (mkfifo(FIFO_PATH, 0600) != 0)
         return -errno;
-    char *argv[] = {(char *)r->hapticd, "--board", (char *)r->board, "--table", (char *)r->table_path,
-                    "--triggers", FIFO_PATH, "--latency-report", LATENCY_PATH, NULL};
+    char *argv[] = {(char *)r->hapticd, "--board", (char *)r->board,   "--table",    (char *)r->table_path,
+                    "--triggers",       FIFO_PATH, "--latency-report", LATENCY_PATH, NULL};
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
     posix_spawn_file_actions_addopen(&fa, 2, r->log, O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -140,8 +140,8 @@ static int stop_hapticd(struct run *r)
 }
 
 /* One host trigger command; its time is taken just before the write. */
-static void trigger_then(struct run *r, const char *name, const char *command, unsigned count, uint32_t a,
-                         uint32_t b, int wait_ms)
+static void trigger_then(struct run *r, const char *name, const char *command, unsigned count, uint32_t a, uint32_t b,
+                         int wait_ms)
 {
     if (r->expect_count == MAX_EXPECT)
         return;
@@ -297,9 +297,10 @@ static void report_latency(const struct run *r, double buffer_s, const char *nam
     /* Causal within one tick: the capture's timeline assumes evenly spaced
      * ticks, and under emulation a tick comes late now and then. */
     int ok = lat[0] > -tick_s && median < 2 * tick_s + 1e-3;
-    vb_result(ok, name, "trigger to first frame on the capture over %u voices: min %.2f ms, "
-              "median %.2f ms, max %.2f ms (timer tick %.1f ms, hapticd's buffer %.2f ms)", n, lat[0] * 1e3,
-              median * 1e3, lat[n - 1] * 1e3, tick_s * 1e3, buffer_s * 1e3);
+    vb_result(ok, name,
+              "trigger to first frame on the capture over %u voices: min %.2f ms, "
+              "median %.2f ms, max %.2f ms (timer tick %.1f ms, hapticd's buffer %.2f ms)",
+              n, lat[0] * 1e3, median * 1e3, lat[n - 1] * 1e3, tick_s * 1e3, buffer_s * 1e3);
 }
 
 static long report_value(const char *key)
@@ -426,8 +427,8 @@ static void check_failing_device(struct run *r)
         stop_hapticd(r);
         return;
     }
-    int exited = wait_until(r->pid, t_unbind + FAILING_BOUND_S * 1000000000ull, &status, &t_exit, r->fifo,
-                            trigger_line);
+    int exited =
+        wait_until(r->pid, t_unbind + FAILING_BOUND_S * 1000000000ull, &status, &t_exit, r->fifo, trigger_line);
     if (!exited) { /* hung: end it so that the card's removal can finish */
         kill(r->pid, SIGKILL);
         waitpid(r->pid, NULL, 0);
@@ -487,8 +488,8 @@ static void check_failing_device(struct run *r)
         snprintf(said, sizeof said, "stderr's give-up line does not name '%s': \"%s\"", dev, gave_up);
     else
         snprintf(said, sizeof said, "stderr has no \"giving up\" line");
-    int ok = exit1 && named && !raw_lib && unbound && WIFEXITED(unbind_status) && !WEXITSTATUS(unbind_status) &&
-             card_gone;
+    int ok =
+        exit1 && named && !raw_lib && unbound && WIFEXITED(unbind_status) && !WEXITSTATUS(unbind_status) && card_gone;
     vb_result(ok, name,
               "%s unbound from %s while hapticd played with triggers going: hapticd %s (bound %d s, exit 1 wanted); "
               "%s; %s; %u raw \"ALSA lib \" line(s)",
@@ -543,8 +544,9 @@ static void check_storm(struct run *r)
             fclose(b);
         return;
     }
-    fprintf(b, "%s\n[exciters]\nrated_power_w = %.6f\nimpedance_ohm = %.1f\nthermal_tau_s = %.2f\n"
-               "[amplifier]\nfull_scale_v = %.1f\n",
+    fprintf(b,
+            "%s\n[exciters]\nrated_power_w = %.6f\nimpedance_ohm = %.1f\nthermal_tau_s = %.2f\n"
+            "[amplifier]\nfull_scale_v = %.1f\n",
             base, rating_w, STORM_OHMS, STORM_TAU_S, STORM_VOLTS);
     fclose(b);
 
@@ -603,8 +605,8 @@ static void check_storm(struct run *r)
     const unsigned segments = atomic_load(&r->cap.segment_count);
     /* 1 %: the recorded samples are the device format's, the heat hapticd
      * keeps is of its accumulators (the same to within rounding). */
-    int ok = status == 0 && segments == 1 && r->cap.error == 0 && sent == STORM_TRIGGERS &&
-             counted == (long)sent && lowered + skipped > 0 && max_heat_w <= rating_w * 1.01 && played_j > 0;
+    int ok = status == 0 && segments == 1 && r->cap.error == 0 && sent == STORM_TRIGGERS && counted == (long)sent &&
+             lowered + skipped > 0 && max_heat_w <= rating_w * 1.01 && played_j > 0;
     vb_result(ok, name,
               "%u triggers %d ms apart (%ld counted): %ld voices lowered, %ld skipped; hottest coil %.3f W for a "
               "%.3f W rating (unprotected the storm gives %.3f W); %.3f J reached the exciters; %u capture "
@@ -674,7 +676,7 @@ static int run(struct run *r)
     printf("hapticd log:\n%s", read_text(r->log) ? read_text(r->log) : "");
     vb_capture_close(&r->cap); /* the card cannot go while we hold it open */
     check_storm(r);
-    check_failing_device(r);   /* last: the card is gone after it */
+    check_failing_device(r); /* last: the card is gone after it */
     vb_touch_close(&r->panel);
     haptic_table_close(&r->table);
     return vb_failed() ? 1 : 0;
@@ -699,12 +701,23 @@ int main(int argc, char **argv)
     optind = 2;
     while ((c = getopt_long(argc, argv, "", opts, NULL)) != -1) {
         switch (c) {
-        case 'h': r.hapticd = optarg; break;
-        case 'b': r.board = optarg; break;
-        case 't': r.table_path = optarg; break;
-        case 'T': r.touch = 1; break;
-        case 'z': r.tick_hz = (unsigned)strtoul(optarg, NULL, 10); break;
-        default: return 2;
+        case 'h':
+            r.hapticd = optarg;
+            break;
+        case 'b':
+            r.board = optarg;
+            break;
+        case 't':
+            r.table_path = optarg;
+            break;
+        case 'T':
+            r.touch = 1;
+            break;
+        case 'z':
+            r.tick_hz = (unsigned)strtoul(optarg, NULL, 10);
+            break;
+        default:
+            return 2;
         }
     }
     if (!r.hapticd || !r.board || !r.table_path) {

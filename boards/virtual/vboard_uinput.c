@@ -77,7 +77,8 @@ int vb_touch_open(struct vb_touch *t)
         rc = -errno;
     static const unsigned axes[] = {ABS_X, ABS_Y, ABS_MT_POSITION_X, ABS_MT_POSITION_Y};
     for (unsigned i = 0; i < 4 && !rc; i++)
-        if (ioctl(fd, UI_SET_ABSBIT, axes[i]) < 0 || (rc = abs_setup(fd, axes[i], i % 2 ? VB_TOUCH_Y_MAX : VB_TOUCH_X_MAX)))
+        if (ioctl(fd, UI_SET_ABSBIT, axes[i]) < 0 ||
+            (rc = abs_setup(fd, axes[i], i % 2 ? VB_TOUCH_Y_MAX : VB_TOUCH_X_MAX)))
             rc = rc ? rc : -errno;
     if (!rc && (ioctl(fd, UI_SET_ABSBIT, ABS_MT_SLOT) < 0 || ioctl(fd, UI_SET_ABSBIT, ABS_MT_TRACKING_ID) < 0))
         rc = -errno;

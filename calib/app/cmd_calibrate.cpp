@@ -65,8 +65,8 @@ Prepared prepare(const std::string &path, const LimitArgs &l, bool verification_
     if (!p.scene.calibration_sections())
         throw std::runtime_error(path + ": not a calibration scene: it needs [active_area], [exciters], [foci], "
                                         "[pulse] and [calibration] sections");
-    p.choice = model::apply_accuracy_target(p.scene);  // calibration.accuracy picks the grid (docs/ACCURACY.md)
-    if (!verification_only)  // verify records the foci only: the full plan below prices it
+    p.choice = model::apply_accuracy_target(p.scene); // calibration.accuracy picks the grid (docs/ACCURACY.md)
+    if (!verification_only)                           // verify records the foci only: the full plan below prices it
         model::refuse_before_build(p.scene, l.limits(), true);
     p.input = scene::calibration_input(p.scene, scene::build_plate(p.scene), *bytes);
     try {
@@ -140,8 +140,8 @@ int dry_run(const std::string &path, const LimitArgs &l)
       << fmt("%.3g us", plan.time_step_s * 1e6) << ", " << plan.window_steps << " steps per "
       << fmt("%g s", in.calibration.window_s) << " window\n";
     o << "  predicted error   "
-      << fmt("%+.3f %%", 100 * model::predicted_phase_error(s.plate.material, s.plate.thickness_m, f_max, g.h,
-                                                            plan.time_step_s))
+      << fmt("%+.3f %%",
+             100 * model::predicted_phase_error(s.plate.material, s.plate.thickness_m, f_max, g.h, plan.time_step_s))
       << " phase velocity at f_max vs exact A0\n";
     o << "  placement foci    " << plan.foci << " of " << in.foci.points.size() << " weighed by the search (cap "
       << plan.placement_focus_cap << ", every focus within " << fmt("%.0f mm", plan.subset_cover_m * 1e3)
@@ -163,7 +163,7 @@ int dry_run(const std::string &path, const LimitArgs &l)
 
 void print_summary(const pipeline::Verification &v, const pipeline::CalibrationInput &in, bool table_mode)
 {
-    if (!table_mode) {  // a device recording: which focus moved how much, and when (judged by --expect)
+    if (!table_mode) { // a device recording: which focus moved how much, and when (judged by --expect)
         // A dense grid: only the foci that crossed the threshold, one line each.
         const bool all = v.foci.size() <= 12;
         std::fprintf(stderr, "%-6s %9s %9s %10s %12s\n", "focus", "x_mm", "y_mm", "peak_um", "at_ms");
@@ -193,11 +193,10 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
         std::fprintf(stderr, "%-6s %9s %9s %10s %11s %9s %9s %9s %8s %17s %s\n", "focus", "x_mm", "y_mm", "peak_um",
                      "others_um", "contr_dB", "area_dB", "spot_mm", "lead_ms", "safe_range_dB", "verdict");
         for (const pipeline::FocusMetrics &m : v.foci)
-            std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %11.2f %9.1f %9s %9.1f %8.1f %17s %s\n", m.id,
-                         m.at.x_m * 1e3, m.at.y_m * 1e3, m.peak_m * 1e6, m.max_other_foci_m * 1e6,
-                         m.other_foci_contrast_db, m.whole_area ? fmt("%.1f", m.whole_area_contrast_db).c_str() : "-",
-                         m.spot_diameter_m * 1e3, m.lead_time_s * 1e3,
-                         pipeline::safe_range_text(m.gain_range(thr)).c_str(),
+            std::fprintf(stderr, "%-6u %9.1f %9.1f %10.2f %11.2f %9.1f %9s %9.1f %8.1f %17s %s\n", m.id, m.at.x_m * 1e3,
+                         m.at.y_m * 1e3, m.peak_m * 1e6, m.max_other_foci_m * 1e6, m.other_foci_contrast_db,
+                         m.whole_area ? fmt("%.1f", m.whole_area_contrast_db).c_str() : "-", m.spot_diameter_m * 1e3,
+                         m.lead_time_s * 1e3, pipeline::safe_range_text(m.gain_range(thr)).c_str(),
                          m.passes() ? "pass" : ("FAIL: " + m.failure(thr)).c_str());
     } else {
         auto stat = [&](const char *name, const char *unit, double scale, auto get) {
@@ -209,19 +208,21 @@ void print_summary(const pipeline::Verification &v, const pipeline::CalibrationI
         };
         std::fprintf(stderr, "%zu foci %-26s %9s %9s %9s\n", v.foci.size(), "", "min", "median", "max");
         stat("peak", "um", 1e6, [](const pipeline::FocusMetrics &m) { return m.peak_m; });
-        stat("contrast over the other foci", "dB", 1, [](const pipeline::FocusMetrics &m) { return m.other_foci_contrast_db; });
-        stat("whole-area contrast, all times", "dB", 1, [](const pipeline::FocusMetrics &m) { return m.whole_area_contrast_db; });
+        stat("contrast over the other foci", "dB", 1,
+             [](const pipeline::FocusMetrics &m) { return m.other_foci_contrast_db; });
+        stat("whole-area contrast, all times", "dB", 1,
+             [](const pipeline::FocusMetrics &m) { return m.whole_area_contrast_db; });
         stat("spot diameter", "mm", 1e3, [](const pipeline::FocusMetrics &m) { return m.spot_diameter_m; });
         stat("lead time", "ms", 1e3, [](const pipeline::FocusMetrics &m) { return m.lead_time_s; });
-        stat("perceived offset", "mm", 1e3, [](const pipeline::FocusMetrics &m) { return m.perceived_offset_distance_m; });
+        stat("perceived offset", "mm", 1e3,
+             [](const pipeline::FocusMetrics &m) { return m.perceived_offset_distance_m; });
         // The failing foci, worst first, up to a dozen lines.
         std::vector<const pipeline::FocusMetrics *> failing;
         for (const pipeline::FocusMetrics &m : v.foci)
             if (!m.passes())
                 failing.push_back(&m);
-        std::sort(failing.begin(), failing.end(), [](const auto *a, const auto *b) {
-            return a->whole_area_contrast_db < b->whole_area_contrast_db;
-        });
+        std::sort(failing.begin(), failing.end(),
+                  [](const auto *a, const auto *b) { return a->whole_area_contrast_db < b->whole_area_contrast_db; });
         for (std::size_t i = 0; i < failing.size() && i < 12; i++)
             std::fprintf(stderr, "focus %u at (%.1f, %.1f) mm FAILS: %s; safe_range_dB %s\n", failing[i]->id,
                          failing[i]->at.x_m * 1e3, failing[i]->at.y_m * 1e3, failing[i]->failure(thr).c_str(),
@@ -243,22 +244,25 @@ bool all_good(const pipeline::Verification &v) { return pipeline::summarize_verd
 
 // `--modes N` is checked with the scene, before the calibration runs: a count
 // the grid allows, and the eigensolver's memory within the machine's.
-void check_modes_fit(const std::string &path, const engine::PlateOperator &plate, int count, const model::Limits &limits)
+void check_modes_fit(const std::string &path, const engine::PlateOperator &plate, int count,
+                     const model::Limits &limits)
 {
     if (count < 1 || std::size_t(count) >= plate.unknown_count())
         throw std::runtime_error("--modes " + std::to_string(count) + ": must be from 1 to " +
-                                 std::to_string(plate.unknown_count() - 1) + " (the nodes free to move on " + path + ")");
+                                 std::to_string(plate.unknown_count() - 1) + " (the nodes free to move on " + path +
+                                 ")");
     const double mb = 1024.0 * 1024.0;
     const double predicted_mb = model::current_rss_mb() + engine::lowest_modes_bytes(plate.unknown_count(), count) / mb;
     if (!(predicted_mb <= limits.memory_mb))
-        throw std::runtime_error(path + ": --modes " + std::to_string(count) + " refused: the eigensolver is predicted to need " +
-                                 fmt("%.0f MB", predicted_mb) + ", over this machine's " + fmt("%.0f MB", limits.memory_mb) +
-                                 " (" + limits.memory_source + ")");
+        throw std::runtime_error(path + ": --modes " + std::to_string(count) +
+                                 " refused: the eigensolver is predicted to need " + fmt("%.0f MB", predicted_mb) +
+                                 ", over this machine's " + fmt("%.0f MB", limits.memory_mb) + " (" +
+                                 limits.memory_source + ")");
 }
 
 struct CalibrateArgs {
     std::string scene, table, report;
-    int modes = 0;  // the plate's lowest modes in the report (0: none, nothing computed)
+    int modes = 0; // the plate's lowest modes in the report (0: none, nothing computed)
     bool quiet = false;
     bool dry_run = false;
     LimitArgs limits;
@@ -281,12 +285,11 @@ int run_calibrate(const CalibrateArgs &a)
     progress.note("scene " + in.scene_name + ": grid " + std::to_string(g.nx) + " x " + std::to_string(g.ny) +
                   " cells of " + std::to_string(g.h * 1e3).substr(0, 5) + " mm, " +
                   std::to_string(in.foci.points.size()) + " foci, " + std::to_string(in.exciters.count) + " exciters");
-    {  // which effects run, and what leaving the others out costs (docs/effects.md)
+    { // which effects run, and what leaving the others out costs (docs/effects.md)
         const double f_hi = pipeline::pulse_max_frequency_hz(in.pulse);
         const double f_lo = std::max(2 * in.pulse.centre_hz - f_hi, 0.25 * in.pulse.centre_hz);
-        for (const std::string &line :
-             report::describe_effects(report::assess_effects(in.effects, in.plate->params(), f_lo, f_hi,
-                                                             report::EffectSupport{true, true})))
+        for (const std::string &line : report::describe_effects(
+                 report::assess_effects(in.effects, in.plate->params(), f_lo, f_hi, report::EffectSupport{true, true})))
             progress.note(line);
     }
     progress.note(std::string("drive design: ") +
@@ -307,14 +310,13 @@ int run_calibrate(const CalibrateArgs &a)
     {
         const pipeline::StageTimes &st = r.times;
         progress.note("stages: placement simulations " + fmt("%.2f s", st.simulation_s) + ", search " +
-                      fmt("%.2f s", st.search_s) + ", transfer matrix " + fmt("%.2f s", st.transfer_s) +
-                      ", signals " + fmt("%.2f s", st.signals_s) + ", verification " +
-                      fmt("%.2f s", st.verification_s) +
+                      fmt("%.2f s", st.search_s) + ", transfer matrix " + fmt("%.2f s", st.transfer_s) + ", signals " +
+                      fmt("%.2f s", st.signals_s) + ", verification " + fmt("%.2f s", st.verification_s) +
                       (st.verdict_s > 0 ? ", search by the verdict " + fmt("%.2f s", st.verdict_s) +
                                               " (the chosen placement's transfer, signals and verification included)"
                                         : std::string()));
     }
-    if (!p.judged.empty()) {  // the search by the verdict (pipeline/placement_verdict.h)
+    if (!p.judged.empty()) { // the search by the verdict (pipeline/placement_verdict.h)
         const auto judged = [&](const pipeline::PlacementReport::Judged &j) {
             return std::to_string(j.passing) + " of " + std::to_string(in.foci.points.size()) + " foci pass, worst " +
                    fmt("%.2f dB", j.worst_whole_area_db);
@@ -504,17 +506,19 @@ int run_verify(const VerifyArgs &a)
     return ok ? 0 : 3;
 }
 
-}  // namespace
+} // namespace
 
 void register_calibrate(CLI::App &app, int &exit_code)
 {
     auto a = std::make_shared<CalibrateArgs>();
-    CLI::App *cmd = app.add_subcommand("calibrate", "Simulate, place exciters, write the table, verify; exit 3 when a focus fails the verdict");
+    CLI::App *cmd = app.add_subcommand(
+        "calibrate", "Simulate, place exciters, write the table, verify; exit 3 when a focus fails the verdict");
     cmd->add_option("scene", a->scene, "Scene file (TOML)")->required();
     cmd->add_option("-o,--output", a->table, "Table to write (.htab); required unless --dry-run");
     cmd->add_flag("--dry-run", a->dry_run, "Print the chosen setting, predicted error, time and memory; run nothing");
     cmd->add_option("--report", a->report, "Directory for metrics.json and index.html");
-    cmd->add_option("--modes", a->modes, "Also show the plate's N lowest eigenmodes in the report (as `calibgen modes`)");
+    cmd->add_option("--modes", a->modes,
+                    "Also show the plate's N lowest eigenmodes in the report (as `calibgen modes`)");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary on stderr");
     add_limit_options(cmd, a->limits);
     cmd->callback([a, &exit_code] { exit_code = run_calibrate(*a); });
@@ -536,4 +540,4 @@ void register_verify(CLI::App &app, int &exit_code)
     cmd->callback([a, &exit_code] { exit_code = run_verify(*a); });
 }
 
-}  // namespace calib::app
+} // namespace calib::app

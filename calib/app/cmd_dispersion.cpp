@@ -77,7 +77,9 @@ double positive(const char *option, const std::string &text, const char *unit)
 std::vector<double> parse_frequencies(const std::string &text)
 {
     const auto bad = [&](const std::string &why) {
-        return UsageError("--freq: " + why + " (expected START:STOP:STEP, START:STOP:xRATIO or F1,F2,... in Hz, positive), got '" + text + "'");
+        return UsageError("--freq: " + why +
+                          " (expected START:STOP:STEP, START:STOP:xRATIO or F1,F2,... in Hz, positive), got '" + text +
+                          "'");
     };
     std::vector<double> f;
     if (text.find(':') != std::string::npos) {
@@ -119,13 +121,15 @@ std::vector<Material> resolve_materials(const DispersionArgs &a)
         for (const std::string &name : split(a.material, ',')) {
             std::optional<Material> m = physics::find_material(name);
             if (!m)
-                throw UsageError("--material: unknown material '" + name + "' (known: " + physics::known_material_names() + ")");
+                throw UsageError("--material: unknown material '" + name +
+                                 "' (known: " + physics::known_material_names() + ")");
             out.push_back(*m);
         }
         return out;
     }
     if (!custom)
-        throw UsageError("--material: give a material name, or --density with --youngs --poisson, or --density with --cl --ct");
+        throw UsageError(
+            "--material: give a material name, or --density with --youngs --poisson, or --density with --cl --ct");
     if (elastic && speeds)
         throw UsageError("--youngs/--poisson: cannot be combined with --cl/--ct (give one pair)");
     if (a.density.empty())
@@ -134,7 +138,8 @@ std::vector<Material> resolve_materials(const DispersionArgs &a)
     try {
         if (elastic) {
             if (a.youngs.empty() || a.poisson.empty())
-                throw UsageError(a.youngs.empty() ? "--youngs: required with --poisson" : "--poisson: required with --youngs");
+                throw UsageError(a.youngs.empty() ? "--youngs: required with --poisson"
+                                                  : "--poisson: required with --youngs");
             double nu = 0;
             if (!parse_double(a.poisson, nu))
                 throw UsageError("--poisson: expected a number in (-1, 0.5), got '" + a.poisson + "'");
@@ -160,7 +165,8 @@ struct ModeFilter {
             return true;
         const std::string prefix = f == ModeFamily::antisymmetric ? "a" : f == ModeFamily::symmetric ? "s" : "sh";
         return std::any_of(names.begin(), names.end(), [&](const std::string &n) {
-            return n.rfind(prefix, 0) == 0 && n.size() > prefix.size() && std::isdigit(static_cast<unsigned char>(n[prefix.size()]));
+            return n.rfind(prefix, 0) == 0 && n.size() > prefix.size() &&
+                   std::isdigit(static_cast<unsigned char>(n[prefix.size()]));
         });
     }
     bool wants(const ModePoint &p) const
@@ -200,10 +206,10 @@ ModeFilter parse_modes(const std::string &text)
 }
 
 struct Row {
-    std::size_t fi;  // index into the frequency list
+    std::size_t fi; // index into the frequency list
     std::string material;
     ModePoint p;
-    double kirchhoff = NAN, mindlin = NAN;  // A0 rows only
+    double kirchhoff = NAN, mindlin = NAN; // A0 rows only
 };
 
 void run(const DispersionArgs &a)
@@ -250,12 +256,15 @@ void run(const DispersionArgs &a)
         std::snprintf(thick, sizeof thick, "d = %g mm", d * 1e3);
         plot.title = "Lamb-wave dispersion, " + std::string(thick) + (several ? "" : ", " + materials[0].name);
         plot.x = {"frequency (Hz)", a.plot_log ? report::AxisScale::log : report::AxisScale::linear};
-        const char *ylabel = a.plot_y == "phase" ? "phase velocity (m/s)"
-                             : a.plot_y == "group" ? "group velocity (m/s)" : "wavelength (m)";
+        const char *ylabel = a.plot_y == "phase"   ? "phase velocity (m/s)"
+                             : a.plot_y == "group" ? "group velocity (m/s)"
+                                                   : "wavelength (m)";
         plot.y = {ylabel, a.plot_log ? report::AxisScale::log : report::AxisScale::linear};
         plot.legend = a.plot_y == "wavelength" ? report::LegendPosition::top_right : report::LegendPosition::top_left;
         auto value = [&](const ModePoint &p) {
-            return a.plot_y == "phase" ? p.phase_velocity_m_s : a.plot_y == "group" ? p.group_velocity_m_s : p.wavelength_m;
+            return a.plot_y == "phase"   ? p.phase_velocity_m_s
+                   : a.plot_y == "group" ? p.group_velocity_m_s
+                                         : p.wavelength_m;
         };
         // One series per (material, mode name), NaN where the mode does not
         // propagate; Kirchhoff (dashed) and Mindlin (dotted) beside each A0.
@@ -334,21 +343,26 @@ void run(const DispersionArgs &a)
     std::fflush(stdout);
 }
 
-}  // namespace
+} // namespace
 
 void register_dispersion(CLI::App &app, int &exit_code)
 {
     auto a = std::make_shared<DispersionArgs>();
     CLI::App *cmd = app.add_subcommand(
-        "dispersion", "Lamb (A_n, S_n) and SH_n plate modes: phase/group velocity and wavelength as CSV, optional plot");
-    cmd->add_option("--material", a->material, "Built-in material(s), comma separated: " + physics::known_material_names());
+        "dispersion",
+        "Lamb (A_n, S_n) and SH_n plate modes: phase/group velocity and wavelength as CSV, optional plot");
+    cmd->add_option("--material", a->material,
+                    "Built-in material(s), comma separated: " + physics::known_material_names());
     cmd->add_option("--density", a->density, "Custom material: density (kg/m^3)");
     cmd->add_option("--youngs", a->youngs, "Custom material: Young's modulus (Pa), with --poisson");
     cmd->add_option("--poisson", a->poisson, "Custom material: Poisson's ratio, with --youngs");
-    cmd->add_option("--cl", a->cl, "Custom material: longitudinal speed (m/s), with --ct; E and nu are derived from the pair");
+    cmd->add_option("--cl", a->cl,
+                    "Custom material: longitudinal speed (m/s), with --ct; E and nu are derived from the pair");
     cmd->add_option("--ct", a->ct, "Custom material: shear speed (m/s), with --cl");
     cmd->add_option("--thickness", a->thickness, "Plate thickness (m)")->required();
-    cmd->add_option("--freq", a->freq, "Frequencies (Hz): START:STOP:STEP (inclusive), START:STOP:xRATIO (geometric) or F1,F2,...")->required();
+    cmd->add_option("--freq", a->freq,
+                    "Frequencies (Hz): START:STOP:STEP (inclusive), START:STOP:xRATIO (geometric) or F1,F2,...")
+        ->required();
     cmd->add_option("--modes", a->modes, "Modes: a0,s0,sh0,a1,... or families a,s,sh, or all (default)");
     cmd->add_option("--mindlin-shear", a->mindlin, "Mindlin shear factor: pi2/12 (default) or rayleigh");
     cmd->add_option("--plot", a->plot, "Also draw the dispersion diagram to FILE.svg or FILE.png");
@@ -368,4 +382,4 @@ void register_dispersion(CLI::App &app, int &exit_code)
     });
 }
 
-}  // namespace calib::app
+} // namespace calib::app

@@ -28,4 +28,4 @@ void register_inspect(CLI::App &app, int &exit_code)
     });
 }
 
-}  // namespace calib::app
+} // namespace calib::app

@@ -54,11 +54,11 @@ int run_modes(const ModesArgs &a)
     if (a.count < 1)
         throw std::invalid_argument("--count " + std::to_string(a.count) + ": must be at least 1");
     scene::Scene sc = scene::load_scene(a.scene);
-    const engine::Grid g = scene::plate_grid(sc);  // refuses absurd grids, naming the keys
+    const engine::Grid g = scene::plate_grid(sc); // refuses absurd grids, naming the keys
     if (std::size_t(a.count) >= g.node_count())
         throw std::invalid_argument("--count " + std::to_string(a.count) + ": the grid of " + std::to_string(g.nx) +
-                                    " x " + std::to_string(g.ny) + " cells has only " +
-                                    std::to_string(g.node_count()) + " nodes");
+                                    " x " + std::to_string(g.ny) + " cells has only " + std::to_string(g.node_count()) +
+                                    " nodes");
 
     // Refused before anything is built: the operator's assembly and the
     // eigensolver's factor and basis, from the node count alone.
@@ -122,15 +122,15 @@ int run_modes(const ModesArgs &a)
                  "%.3f s wall, %ld Lanczos restarts\n",
                  a.count, modes.frequency_hz.front(), modes.frequency_hz.back(), g.nx, g.ny, g.h, op.unknown_count(),
                  engine::edge_kind_name(op.params().edges.left), engine::edge_kind_name(op.params().edges.right),
-                 engine::edge_kind_name(op.params().edges.bottom), engine::edge_kind_name(op.params().edges.top),
-                 wall, modes.iterations);
+                 engine::edge_kind_name(op.params().edges.bottom), engine::edge_kind_name(op.params().edges.top), wall,
+                 modes.iterations);
     if (sc.effects.thick_plate || sc.effects.finger || sc.effects.exciter)
         std::fprintf(stderr, "modes: the Kirchhoff plate alone: the scene's [effects] thick_plate, finger and exciter "
                              "are not in these modes\n");
     return 0;
 }
 
-}  // namespace
+} // namespace
 
 void register_modes(CLI::App &app, int &exit_code)
 {
@@ -156,4 +156,4 @@ void register_modes(CLI::App &app, int &exit_code)
     });
 }
 
-}  // namespace calib::app
+} // namespace calib::app

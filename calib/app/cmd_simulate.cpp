@@ -125,7 +125,7 @@ int run_simulate(const SimulateArgs &a)
     return 0;
 }
 
-}  // namespace
+} // namespace
 
 void register_simulate(CLI::App &app, int &exit_code)
 {
@@ -155,4 +155,4 @@ void register_simulate(CLI::App &app, int &exit_code)
     });
 }
 
-}  // namespace calib::app
+} // namespace calib::app

@@ -71,8 +71,9 @@ int run_study_latency(const LatencyArgs &a)
     const std::string md = study::write_latency_report(r, a.report);
     std::printf("%s", md.c_str());
     std::fprintf(stderr, "wrote %s/latency.{csv,svg,png,md} and latency-efficiency.svg%s\n", a.report.c_str(),
-                 std::filesystem::exists(a.report + "/multitouch.csv") ? " (multitouch.csv, .svg, .png with joint designs)"
-                                                                        : "");
+                 std::filesystem::exists(a.report + "/multitouch.csv")
+                     ? " (multitouch.csv, .svg, .png with joint designs)"
+                     : "");
     return 0;
 }
 
@@ -99,7 +100,7 @@ int run_study_accuracy(const StudyArgs &a)
     return 0;
 }
 
-}  // namespace
+} // namespace
 
 void register_study(CLI::App &app, int &exit_code)
 {
@@ -154,8 +155,9 @@ void register_study(CLI::App &app, int &exit_code)
                       "combinations), each from its own transfer matrix; CSV, tornado plot and summary");
     rob->add_option("scene", r->scene_path, "Calibration scene (TOML); its [tolerance] is the box, else the default")
         ->required();
-    rob->add_option("--report", r->report_dir, "Directory for robustness.csv, robustness_tornado.{svg,png}, "
-                                               "robustness.md")
+    rob->add_option("--report", r->report_dir,
+                    "Directory for robustness.csv, robustness_tornado.{svg,png}, "
+                    "robustness.md")
         ->required();
     rob->add_option("--random", r->random_cases, "Random combinations (default: the box's, 8 for the default box)")
         ->check(CLI::Range(0, 10000));
@@ -173,4 +175,4 @@ void register_study(CLI::App &app, int &exit_code)
     });
 }
 
-}  // namespace calib::app
+} // namespace calib::app

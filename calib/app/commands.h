@@ -14,4 +14,4 @@ void register_simulate(CLI::App &app, int &exit_code);
 void register_study(CLI::App &app, int &exit_code);
 void register_modes(CLI::App &app, int &exit_code);
 
-}  // namespace calib::app
+} // namespace calib::app

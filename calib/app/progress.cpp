@@ -40,7 +40,8 @@ void Progress::update(const std::string &stage, size_t done, size_t total)
     last_print_ = now;
     char eta[48] = "";
     if (!finished && done > 0)
-        std::snprintf(eta, sizeof eta, ", ETA %.1f s", elapsed / static_cast<double>(done) * static_cast<double>(total - done));
+        std::snprintf(eta, sizeof eta, ", ETA %.1f s",
+                      elapsed / static_cast<double>(done) * static_cast<double>(total - done));
     else if (finished)
         std::snprintf(eta, sizeof eta, " in %.2f s", elapsed);
     std::fprintf(stderr, "%s[%s] %zu/%zu%s%s", tty_ ? "\r\033[K" : "", stage.c_str(), done, total, eta,
@@ -48,4 +49,4 @@ void Progress::update(const std::string &stage, size_t done, size_t total)
     std::fflush(stderr);
 }
 
-}  // namespace calib::app
+} // namespace calib::app

@@ -11,12 +11,12 @@
 namespace calib::app {
 
 class Progress {
-public:
+  public:
     explicit Progress(bool quiet);
     pipeline::ProgressFn callback();
-    void note(const std::string &line);  // a plain line (unless quiet)
+    void note(const std::string &line); // a plain line (unless quiet)
 
-private:
+  private:
     void update(const std::string &stage, size_t done, size_t total);
 
     bool quiet_, tty_;
@@ -25,4 +25,4 @@ private:
     std::chrono::steady_clock::time_point stage_start_, last_print_;
 };
 
-}  // namespace calib::app
+} // namespace calib::app

@@ -49,18 +49,18 @@ template <typename T>
 using RowsFn = void (*)(std::size_t, double, const std::int32_t *, const T *, const EdgeRowTerms &,
                         const EdgeRowTerms &, double *);
 
-#define HAPTIC_EDGE_VARIANT(SUFFIX, ATTR)                                                                        \
-    template <typename T>                                                                                        \
-    ATTR void strains_##SUFFIX(std::size_t blocks, int nodes, const std::int32_t *offset, const T *weight,       \
-                               const T *field, double *value)                                                    \
-    {                                                                                                            \
-        strains_body<T>(blocks, nodes, offset, weight, field, value);                                           \
-    }                                                                                                            \
-    template <typename T>                                                                                        \
-    ATTR void rows_##SUFFIX(std::size_t blocks, double g, const std::int32_t *target, const T *inc,             \
-                            const EdgeRowTerms &r, const EdgeRowTerms &s, double *out)                           \
-    {                                                                                                            \
-        rows_body<T>(blocks, g, target, inc, r, s, out);                                                        \
+#define HAPTIC_EDGE_VARIANT(SUFFIX, ATTR)                                                                              \
+    template <typename T>                                                                                              \
+    ATTR void strains_##SUFFIX(std::size_t blocks, int nodes, const std::int32_t *offset, const T *weight,             \
+                               const T *field, double *value)                                                          \
+    {                                                                                                                  \
+        strains_body<T>(blocks, nodes, offset, weight, field, value);                                                  \
+    }                                                                                                                  \
+    template <typename T>                                                                                              \
+    ATTR void rows_##SUFFIX(std::size_t blocks, double g, const std::int32_t *target, const T *inc,                    \
+                            const EdgeRowTerms &r, const EdgeRowTerms &s, double *out)                                 \
+    {                                                                                                                  \
+        rows_body<T>(blocks, g, target, inc, r, s, out);                                                               \
     }
 
 HAPTIC_EDGE_VARIANT(baseline, )
@@ -69,7 +69,7 @@ HAPTIC_EDGE_VARIANT(avx512, __attribute__((target("arch=x86-64-v4,prefer-vector-
 HAPTIC_EDGE_VARIANT(avx2, __attribute__((target("arch=x86-64-v3"))))
 #endif
 
-}  // namespace
+} // namespace
 
 template <typename T>
 void edge_strains(std::size_t blocks, int nodes, const std::int32_t *offset, const T *weight, const T *field,
@@ -78,10 +78,13 @@ void edge_strains(std::size_t blocks, int nodes, const std::int32_t *offset, con
     static const StrainsFn<T> fn = [] {
         switch (kernel_isa_level()) {
 #ifdef HAPTIC_DISPATCH
-        case 2: return StrainsFn<T>(strains_avx512<T>);
-        case 1: return StrainsFn<T>(strains_avx2<T>);
+        case 2:
+            return StrainsFn<T>(strains_avx512<T>);
+        case 1:
+            return StrainsFn<T>(strains_avx2<T>);
 #endif
-        default: return StrainsFn<T>(strains_baseline<T>);
+        default:
+            return StrainsFn<T>(strains_baseline<T>);
         }
     }();
     fn(blocks, nodes, offset, weight, field, value);
@@ -94,10 +97,13 @@ void edge_rows(std::size_t blocks, double g, const std::int32_t *target, const T
     static const RowsFn<T> fn = [] {
         switch (kernel_isa_level()) {
 #ifdef HAPTIC_DISPATCH
-        case 2: return RowsFn<T>(rows_avx512<T>);
-        case 1: return RowsFn<T>(rows_avx2<T>);
+        case 2:
+            return RowsFn<T>(rows_avx512<T>);
+        case 1:
+            return RowsFn<T>(rows_avx2<T>);
 #endif
-        default: return RowsFn<T>(rows_baseline<T>);
+        default:
+            return RowsFn<T>(rows_baseline<T>);
         }
     }();
     fn(blocks, g, target, inc, r, s, out);
@@ -110,4 +116,4 @@ template void edge_rows<float>(std::size_t, double, const std::int32_t *, const 
 template void edge_rows<double>(std::size_t, double, const std::int32_t *, const double *, const EdgeRowTerms &,
                                 const EdgeRowTerms &, double *);
 
-}  // namespace calib::engine
+} // namespace calib::engine

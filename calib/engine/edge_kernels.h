@@ -17,10 +17,10 @@ void edge_strains(std::size_t blocks, int nodes, const std::int32_t *offset, con
                   double *value);
 
 struct EdgeRowTerms {
-    std::uint32_t count;          // terms per row
-    const std::uint32_t *strain;  // [block][term][lane] indices into value
-    const void *coef;             // [block][term][lane], of the engine's precision
-    const double *value;          // strain values
+    std::uint32_t count;         // terms per row
+    const std::uint32_t *strain; // [block][term][lane] indices into value
+    const void *coef;            // [block][term][lane], of the engine's precision
+    const double *value;         // strain values
 };
 
 // out[b lanes + l] = g inc[target[...]] - sum of coef value over the terms of
@@ -29,4 +29,4 @@ template <typename T>
 void edge_rows(std::size_t blocks, double g, const std::int32_t *target, const T *inc, const EdgeRowTerms &r,
                const EdgeRowTerms &s, double *out);
 
-}  // namespace calib::engine
+} // namespace calib::engine

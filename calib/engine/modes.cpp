@@ -17,10 +17,14 @@ namespace calib::engine {
 const char *parity_name(Parity p)
 {
     switch (p) {
-    case Parity::symmetric: return "sym";
-    case Parity::antisymmetric: return "anti";
-    case Parity::mixed: return "mixed";
-    case Parity::not_applicable: return "-";
+    case Parity::symmetric:
+        return "sym";
+    case Parity::antisymmetric:
+        return "anti";
+    case Parity::mixed:
+        return "mixed";
+    case Parity::not_applicable:
+        return "-";
     }
     return "?";
 }
@@ -31,13 +35,12 @@ namespace {
 //   (A - sigma I)^-1 x = M^1/2 (K - sigma M)^-1 M^1/2 x,
 // one sparse Cholesky factor (minimum-degree ordering) per shift.
 class MassScaledShiftSolve {
-public:
+  public:
     using Scalar = double;
 
     MassScaledShiftSolve(const PlateOperator::SparseMatrix &k, const Eigen::VectorXd &m)
         : k_(k), m_(m), sqrt_m_(m.cwiseSqrt())
-    {
-    }
+    {}
     Eigen::Index rows() const { return k_.rows(); }
     Eigen::Index cols() const { return k_.cols(); }
 
@@ -65,7 +68,7 @@ public:
         y = sqrt_m_.cwiseProduct(llt_.solve(sqrt_m_.cwiseProduct(x)).eval());
     }
 
-private:
+  private:
     const PlateOperator::SparseMatrix &k_;
     const Eigen::VectorXd &m_;
     Eigen::VectorXd sqrt_m_;
@@ -86,7 +89,7 @@ std::vector<Eigen::Index> mirror_of(const PlateOperator &op, bool along_x)
         const int i = int(node % std::size_t(g.nx + 1)), j = int(node / std::size_t(g.nx + 1));
         const std::ptrdiff_t m = op.unknown_of()[along_x ? g.node(g.nx - i, j) : g.node(i, g.ny - j)];
         if (m < 0)
-            return {};  // cannot happen with equal edge kinds; no symmetry claimed if it does
+            return {}; // cannot happen with equal edge kinds; no symmetry claimed if it does
         out[u] = Eigen::Index(m);
     }
     return out;
@@ -115,15 +118,16 @@ Parity classify(const Eigen::Ref<const Eigen::VectorXd> &v, const Eigen::VectorX
     return Parity::mixed;
 }
 
-}  // namespace
+} // namespace
 
 PlateModes lowest_modes(const PlateOperator &op, int count)
 {
     const Eigen::Index n = Eigen::Index(op.unknown_count());
     if (count < 1 || Eigen::Index(count) >= n) {
         char b[160];
-        std::snprintf(b, sizeof b, "modes: the count must be at least 1 and below the %ld unknowns of the grid (got %d)",
-                      long(n), count);
+        std::snprintf(b, sizeof b,
+                      "modes: the count must be at least 1 and below the %ld unknowns of the grid (got %d)", long(n),
+                      count);
         throw std::invalid_argument(b);
     }
     const PlateParams &pp = op.params();
@@ -197,9 +201,8 @@ PlateModes lowest_modes(const PlateOperator &op, int count)
         out.eigenvalue_rad2_s2.push_back(eig[std::size_t(c)]);
         out.frequency_hz.push_back(std::sqrt(std::max(eig[std::size_t(c)], 0.0)) / (2 * std::numbers::pi));
         const double vmv = v.dot(m.cwiseProduct(v));
-        out.decay_rate_1_s.push_back(pp.loss.active()
-                                         ? pp.loss.sigma0 + pp.loss.sigma1 * v.dot(op.dirichlet() * v) / vmv
-                                         : 0.0);
+        out.decay_rate_1_s.push_back(
+            pp.loss.active() ? pp.loss.sigma0 + pp.loss.sigma1 * v.dot(op.dirichlet() * v) / vmv : 0.0);
         out.parity_x.push_back(classify(v, m, mx));
         out.parity_y.push_back(classify(v, m, my));
     }
@@ -225,10 +228,7 @@ double lowest_modes_bytes(std::size_t unknowns, int count)
 
 // The assembly keeps the triplets of K and Gm (up to ~170 per node of 16
 // bytes) next to the finished matrices: measured peak 2.7 to 2.9 kB per node.
-double plate_operator_bytes(std::size_t nodes)
-{
-    return 3500.0 * double(nodes);
-}
+double plate_operator_bytes(std::size_t nodes) { return 3500.0 * double(nodes); }
 
 std::vector<double> mode_field(const PlateOperator &op, const Eigen::Ref<const Eigen::VectorXd> &shape)
 {
@@ -248,4 +248,4 @@ std::vector<double> mode_field(const PlateOperator &op, const Eigen::Ref<const E
     return field;
 }
 
-}  // namespace calib::engine
+} // namespace calib::engine

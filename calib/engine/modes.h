@@ -25,11 +25,11 @@ namespace calib::engine {
 // A mode's parity under the plate's mirror symmetry about x = Lx/2 or
 // y = Ly/2 (only when the two mirrored edges have the same condition).
 enum class Parity { symmetric, antisymmetric, mixed, not_applicable };
-const char *parity_name(Parity p);  // "sym", "anti", "mixed", "-"
+const char *parity_name(Parity p); // "sym", "anti", "mixed", "-"
 
 struct PlateModes {
-    std::vector<double> eigenvalue_rad2_s2;  // omega^2, ascending (~0 for rigid-body modes; may be -1e-12-ish)
-    std::vector<double> frequency_hz;        // sqrt(max(omega^2, 0)) / 2 pi
+    std::vector<double> eigenvalue_rad2_s2; // omega^2, ascending (~0 for rigid-body modes; may be -1e-12-ish)
+    std::vector<double> frequency_hz;       // sqrt(max(omega^2, 0)) / 2 pi
     // Amplitude decay rate of each mode with the operator's loss, to first
     // order in the loss: sigma0 + sigma1 v^T Gm v (v^T M v = 1); for a simply
     // supported plate exactly sigma0 + sigma1 times the discrete -laplacian's
@@ -40,8 +40,8 @@ struct PlateModes {
     // (m, n) and (n, m)) the vectors are rotated to be mirror-symmetric or
     // antisymmetric where the edges allow it.
     Eigen::MatrixXd shapes;
-    long iterations = 0;  // Lanczos restarts
-    long operations = 0;  // solves with the factor
+    long iterations = 0; // Lanczos restarts
+    long operations = 0; // solves with the factor
 };
 
 // The `count` lowest modes. Throws std::invalid_argument unless
@@ -61,4 +61,4 @@ double plate_operator_bytes(std::size_t nodes);
 // to max |w| = 1 with the largest value positive (a reproducible sign).
 std::vector<double> mode_field(const PlateOperator &op, const Eigen::Ref<const Eigen::VectorXd> &shape);
 
-}  // namespace calib::engine
+} // namespace calib::engine

@@ -28,4 +28,4 @@ bool any_non_finite(const T *p, long n)
     return (bad >> (8 * sizeof(Bits) - 1)) != 0;
 }
 
-}  // namespace calib::engine
+} // namespace calib::engine

@@ -258,4 +258,4 @@ void PlateEngine<T>::set_state(const std::vector<double> &current, const std::ve
 template class PlateEngine<float>;
 template class PlateEngine<double>;
 
-}  // namespace calib::engine
+} // namespace calib::engine

@@ -20,22 +20,22 @@
 namespace calib::engine {
 
 struct EngineOptions {
-    int threads = 0;                        // 0: OpenMP's default
-    std::size_t parallel_min_cells = 1u << 16;  // smaller interiors run on one thread (fork/join costs more)
-    bool skip_stability_check = false;      // tests only: lets a test show the bound is real
+    int threads = 0;                           // 0: OpenMP's default
+    std::size_t parallel_min_cells = 1u << 16; // smaller interiors run on one thread (fork/join costs more)
+    bool skip_stability_check = false;         // tests only: lets a test show the bound is real
 };
 
 // Sets flush-to-zero and denormals-are-zero on this thread and on OpenMP's
 // worker threads for its lifetime (float runs: decaying fields would
 // otherwise reach denormals and slow down 10-100x).
 class ScopedFlushDenormals {
-public:
+  public:
     ScopedFlushDenormals();
     ~ScopedFlushDenormals();
     ScopedFlushDenormals(const ScopedFlushDenormals &) = delete;
     ScopedFlushDenormals &operator=(const ScopedFlushDenormals &) = delete;
 
-private:
+  private:
     unsigned saved_ = 0;
 };
 
@@ -47,7 +47,7 @@ private:
 // extensions never calls a hook.
 template <typename T>
 class PlateEngine final : public PointField {
-public:
+  public:
     // Throws std::invalid_argument if the time step is not below the operator's
     // stability bound (unless options.skip_stability_check).
     PlateEngine(std::shared_ptr<const PlateOperator> op, double time_step_s, const EngineOptions &options = {});
@@ -90,7 +90,7 @@ public:
     // Empty while every node of the newest level is finite; else what and
     // where: the first non-finite node in row order, their count and extent.
     std::string non_finite_report() const;
-    double w_at(int i, int j) const { return double(u_[j * stride_ + i]); }  // the newest level at node (i, j)
+    double w_at(int i, int j) const { return double(u_[j * stride_ + i]); } // the newest level at node (i, j)
     // Sets u^n and u^{n-1} (values at fixed nodes are ignored).
     void set_state(const std::vector<double> &current, const std::vector<double> &previous);
 
@@ -104,7 +104,7 @@ public:
     // (and the momentum it carries to the rigid-body bookkeeping).
     void add_displacement(std::ptrdiff_t offset, T delta_m);
 
-private:
+  private:
     // Edge-band rows in factored form (plate_operator.h): first the strains
     // (integer-weighted differences of the field: of u for K, of d for Gm),
     // then each row as a combination of strains. A free plate's rigid motion has zero strains,
@@ -113,28 +113,28 @@ private:
     // fraction of the grid), so its round-off is one rounding per node and
     // step, as in the bulk.
     // Stored in SIMD blocks (plate_engine_edge.cpp, edge_kernels.h).
-    static constexpr int max_strain_nodes = 4;  // PlateOperator::Stencil
+    static constexpr int max_strain_nodes = 4; // PlateOperator::Stencil
     struct StrainSet {
         // blocks[L-1] blocks of strains of L nodes, [block][node][lane].
         std::array<std::size_t, max_strain_nodes> blocks{};
         std::vector<std::int32_t> offset;
-        std::vector<T> weight;  // small integers, exact in T; 0 in a padded lane
-        std::vector<double> value;  // scratch, one per (padded) strain
+        std::vector<T> weight;     // small integers, exact in T; 0 in a padded lane
+        std::vector<double> value; // scratch, one per (padded) strain
     };
-    struct RowTerms {  // [block][term][lane], group after group
+    struct RowTerms { // [block][term][lane], group after group
         std::vector<std::uint32_t> strain;
         std::vector<T> coef;
     };
-    struct RowGroup {  // consecutive blocks of rows with the same term counts
+    struct RowGroup { // consecutive blocks of rows with the same term counts
         std::uint32_t blocks = 0, r_terms = 0, s_terms = 0;
     };
     struct BandRow {
-        std::uint32_t slot;  // in band_next_
+        std::uint32_t slot; // in band_next_
         std::ptrdiff_t target;
     };
     struct PointTap {
         std::vector<std::ptrdiff_t> offset;
-        std::vector<T> weight;  // sources: displacement per newton; receivers: interpolation weight
+        std::vector<T> weight; // sources: displacement per newton; receivers: interpolation weight
         T force = 0;
     };
     template <bool Lossy>
@@ -146,7 +146,7 @@ private:
     std::ptrdiff_t offset_of(std::size_t node) const;
     void build_edge_rows();
     template <bool Lossy>
-    void edge_band_update();  // band_next_ from u^n and d^n
+    void edge_band_update(); // band_next_ from u^n and d^n
 
     std::shared_ptr<const PlateOperator> op_;
     EngineOptions options_;
@@ -157,16 +157,16 @@ private:
     std::size_t steps_ = 0;
     int bulk_threads_ = 1;
     T *storage_ = nullptr;
-    T *u_ = nullptr, *inc_ = nullptr, *inc_before_ = nullptr;  // u^n, d^n, d^{n-1} (before a step)
-    T *scratch_ = nullptr;  // the bulk kernel's rows, bulk_threads_ * bulk_scratch_rows
+    T *u_ = nullptr, *inc_ = nullptr, *inc_before_ = nullptr; // u^n, d^n, d^{n-1} (before a step)
+    T *scratch_ = nullptr; // the bulk kernel's rows, bulk_threads_ * bulk_scratch_rows
     BulkCoefficients<T> bulk_{};
     // d+ = g d - R u - S d on the edge band: strains of u and rows of R, strains of d and rows of S.
     StrainSet strains_r_, strains_s_;
     RowTerms terms_r_, terms_s_;
     std::vector<RowGroup> row_groups_;
-    std::vector<std::int32_t> band_target_;  // field offset of each (padded) row
-    std::vector<BandRow> band_rows_;  // the real rows
-    std::vector<double> band_next_;  // d^{n+1} of the (padded) band, held while the bulk reads d^n
+    std::vector<std::int32_t> band_target_; // field offset of each (padded) row
+    std::vector<BandRow> band_rows_;        // the real rows
+    std::vector<double> band_next_;         // d^{n+1} of the (padded) band, held while the bulk reads d^n
     // Rigid-body modes r_c = R b_c (R: the fields 1, i, j on the unknowns) that
     // K (and Gm, with sigma1 loss) annihilate; the momenta p_c = r_c^T M d the
     // scheme conserves exactly (times g per step with sigma0), what sources
@@ -182,4 +182,4 @@ private:
 extern template class PlateEngine<float>;
 extern template class PlateEngine<double>;
 
-}  // namespace calib::engine
+} // namespace calib::engine

@@ -51,8 +51,7 @@ void PlateEngine<T>::build_edge_rows()
                     const int i = int(node % std::size_t(nx_ + 1)), j = int(node / std::size_t(nx_ + 1));
                     if (!op.in_edge_band(i, j))
                         continue;
-                    rows[node][other] +=
-                        0.5 * f.weight * own->weight[std::size_t(t)] * own->scale * other_scale;
+                    rows[node][other] += 0.5 * f.weight * own->weight[std::size_t(t)] * own->scale * other_scale;
                 }
             }
         }
@@ -61,7 +60,7 @@ void PlateEngine<T>::build_edge_rows()
     if (loss.sigma1 > 0)
         add_terms(op.edge_dirichlet_terms(), rows_g);
 
-    using Terms = std::vector<std::pair<std::size_t, double>>;  // (stencil, coefficient)
+    using Terms = std::vector<std::pair<std::size_t, double>>; // (stencil, coefficient)
     struct Row {
         std::ptrdiff_t target;
         Terms r, s;
@@ -71,7 +70,7 @@ void PlateEngine<T>::build_edge_rows()
         const std::size_t node = op.node_of()[u];
         const int i = int(node % std::size_t(nx_ + 1)), j = int(node / std::size_t(nx_ + 1));
         if (!op.in_edge_band(i, j))
-            continue;  // bulk
+            continue; // bulk
         const double minv = 1.0 / op.mass()[Eigen::Index(u)];
         Row row{offset_of(node), {}, {}};
         for (auto [strain, c] : rows_k[node])
@@ -212,4 +211,4 @@ template void PlateEngine<float>::edge_band_update<false>();
 template void PlateEngine<double>::edge_band_update<true>();
 template void PlateEngine<double>::edge_band_update<false>();
 
-}  // namespace calib::engine
+} // namespace calib::engine

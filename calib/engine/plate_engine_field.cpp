@@ -77,20 +77,20 @@ std::string PlateEngine<T>::non_finite_report() const
         }
     const double h = op_->grid().h;
     using io::fmt;
-    return "non-finite displacement (" + fmt("%g", first) + ") at step " + std::to_string(steps_ - 1) + " (t = " +
-           fmt("%.6g", double(steps_) * k_) + " s), first at node (i, j) = (" + std::to_string(fi) + ", " +
+    return "non-finite displacement (" + fmt("%g", first) + ") at step " + std::to_string(steps_ - 1) +
+           " (t = " + fmt("%.6g", double(steps_) * k_) + " s), first at node (i, j) = (" + std::to_string(fi) + ", " +
            std::to_string(fj) + "), (x, y) = (" + fmt("%.6g", fi * h) + ", " + fmt("%.6g", fj * h) + ") m; " +
            std::to_string(count) + " non-finite nodes in i " + std::to_string(i0) + ".." + std::to_string(i1) + ", j " +
            std::to_string(j0) + ".." + std::to_string(j1);
 }
 
-#define PLATE_ENGINE_FIELD(T)                                                               \
-    template PointTaps PlateEngine<T>::couple(double, double, const char *) const;         \
-    template PointLevels PlateEngine<T>::read(const PointTaps &) const;                    \
-    template void PlateEngine<T>::apply(const PointTaps &, double);                        \
+#define PLATE_ENGINE_FIELD(T)                                                                                          \
+    template PointTaps PlateEngine<T>::couple(double, double, const char *) const;                                     \
+    template PointLevels PlateEngine<T>::read(const PointTaps &) const;                                                \
+    template void PlateEngine<T>::apply(const PointTaps &, double);                                                    \
     template std::string PlateEngine<T>::non_finite_report() const;
 PLATE_ENGINE_FIELD(float)
 PLATE_ENGINE_FIELD(double)
 #undef PLATE_ENGINE_FIELD
 
-}  // namespace calib::engine
+} // namespace calib::engine

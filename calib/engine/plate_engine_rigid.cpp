@@ -25,8 +25,7 @@ void PlateEngine<T>::build_rigid_modes()
     const PlateOperator &op = *op_;
     const Edges &e = op.params().edges;
     rigid_count_ = 0;
-    if (e.left != EdgeKind::free && e.right != EdgeKind::free && e.bottom != EdgeKind::free &&
-        e.top != EdgeKind::free)
+    if (e.left != EdgeKind::free && e.right != EdgeKind::free && e.bottom != EdgeKind::free && e.top != EdgeKind::free)
         return;
     const Eigen::Index n = Eigen::Index(op.unknown_count());
     Eigen::MatrixXd r(n, 3);
@@ -38,7 +37,7 @@ void PlateEngine<T>::build_rigid_modes()
     }
     const Eigen::Matrix3d gram = r.transpose() * op.mass().asDiagonal() * r;
     if (Eigen::LLT<Eigen::Matrix3d>(gram).info() != Eigen::Success)
-        return;  // the unknowns lie on one line: no rigid mode to keep
+        return; // the unknowns lie on one line: no rigid mode to keep
     Eigen::Matrix3d form = (r.transpose() * (op.stiffness() * r)) / op.lambda_max_stiffness();
     if (op.params().loss.sigma1 > 0)
         form += (r.transpose() * (op.dirichlet() * r)) / op.lambda_max_dirichlet();
@@ -53,8 +52,8 @@ void PlateEngine<T>::build_rigid_modes()
         }
     const auto raw = raw_moments();
     for (int c = 0; c < rigid_count_; ++c)
-        rigid_expected_[std::size_t(c)] = rigid_b_[std::size_t(c)][0] * raw[0] +
-                                          rigid_b_[std::size_t(c)][1] * raw[1] + rigid_b_[std::size_t(c)][2] * raw[2];
+        rigid_expected_[std::size_t(c)] = rigid_b_[std::size_t(c)][0] * raw[0] + rigid_b_[std::size_t(c)][1] * raw[1] +
+                                          rigid_b_[std::size_t(c)][2] * raw[2];
 }
 
 // sum_n m_n (1, i, j) d_n over the unknowns.
@@ -84,7 +83,7 @@ template <typename T>
 void PlateEngine<T>::restore_rigid_momenta()
 {
     const auto raw = raw_moments();
-    double a0 = 0, a1 = 0, a2 = 0;  // the correction a0 + a1 i + a2 j
+    double a0 = 0, a1 = 0, a2 = 0; // the correction a0 + a1 i + a2 j
     for (int c = 0; c < rigid_count_; ++c) {
         const auto &b = rigid_b_[std::size_t(c)];
         const double gap = rigid_expected_[std::size_t(c)] - (b[0] * raw[0] + b[1] * raw[1] + b[2] * raw[2]);
@@ -101,12 +100,12 @@ void PlateEngine<T>::restore_rigid_momenta()
                 inc_[j * stride_ + i] += T(a0 + a1 * i + a2 * j);
 }
 
-#define PLATE_ENGINE_RIGID(T)                                            \
-    template void PlateEngine<T>::build_rigid_modes();                   \
-    template std::array<double, 3> PlateEngine<T>::raw_moments() const; \
+#define PLATE_ENGINE_RIGID(T)                                                                                          \
+    template void PlateEngine<T>::build_rigid_modes();                                                                 \
+    template std::array<double, 3> PlateEngine<T>::raw_moments() const;                                                \
     template void PlateEngine<T>::restore_rigid_momenta();
 PLATE_ENGINE_RIGID(float)
 PLATE_ENGINE_RIGID(double)
 #undef PLATE_ENGINE_RIGID
 
-}  // namespace calib::engine
+} // namespace calib::engine

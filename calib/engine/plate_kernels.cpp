@@ -15,12 +15,10 @@ namespace {
 // of row j+1) before it is written, in the same iteration; no later iteration
 // reads it. No branches inside the i loop.
 template <typename T, bool Lossy, bool Fresh>
-inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T *__restrict u1,
-                                                      const T *__restrict u2, const T *__restrict lm,
-                                                      const T *__restrict l0, T *__restrict lp,
-                                                      const T *__restrict dm, const T *__restrict d0,
-                                                      const T *__restrict dp, T *__restrict dn, int i0, int i1,
-                                                      const BulkCoefficients<T> &c)
+inline __attribute__((always_inline)) void
+output_row(T *__restrict u0, const T *__restrict u1, const T *__restrict u2, const T *__restrict lm,
+           const T *__restrict l0, T *__restrict lp, const T *__restrict dm, const T *__restrict d0,
+           const T *__restrict dp, T *__restrict dn, int i0, int i1, const BulkCoefficients<T> &c)
 {
     const T g = c.g, mu2 = c.mu2, nu1 = c.nu1;
     if constexpr (Fresh) {
@@ -74,9 +72,8 @@ inline T *laplacian_slot(T *scratch, std::ptrdiff_t s, int a, int b, int row)
 }
 
 template <typename T, bool Lossy>
-inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1,
-                                                     int a, int b, const BulkCoefficients<T> &c, T *scratch,
-                                                     BulkPhase phase)
+inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int a,
+                                                     int b, const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)
 {
     if (b <= a)
         return;
@@ -99,7 +96,7 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
     }
 }
 
-}  // namespace
+} // namespace
 
 // Run-time ISA dispatch: the same body compiled for AVX-512 (with 512-bit
 // vectors: GCC otherwise prefers 256-bit ones on x86-64-v4), AVX2+FMA and the
@@ -109,12 +106,12 @@ template <typename T>
 using BulkFn = void (*)(T *, const T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, T *,
                         BulkPhase);
 
-#define HAPTIC_BULK_VARIANT(NAME, ATTR)                                                                       \
-    template <typename T, bool Lossy>                                                                         \
-    ATTR void NAME(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,                \
-                   const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)                                 \
-    {                                                                                                         \
-        bulk_body<T, Lossy>(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);                                  \
+#define HAPTIC_BULK_VARIANT(NAME, ATTR)                                                                                \
+    template <typename T, bool Lossy>                                                                                  \
+    ATTR void NAME(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,                          \
+                   const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)                                          \
+    {                                                                                                                  \
+        bulk_body<T, Lossy>(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);                                           \
     }
 
 HAPTIC_BULK_VARIANT(bulk_baseline, )
@@ -142,15 +139,18 @@ BulkFn<T> select_bulk()
 {
 #ifdef HAPTIC_DISPATCH
     switch (kernel_isa_level()) {
-    case 2: return bulk_avx512<T, Lossy>;
-    case 1: return bulk_avx2<T, Lossy>;
-    default: break;
+    case 2:
+        return bulk_avx512<T, Lossy>;
+    case 1:
+        return bulk_avx2<T, Lossy>;
+    default:
+        break;
     }
 #endif
     return bulk_baseline<T, Lossy>;
 }
 
-}  // namespace
+} // namespace
 
 template <typename T, bool Lossy>
 void bulk_update(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
@@ -183,10 +183,10 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
     }
 }
 
-#define HAPTIC_BULK_INSTANCES(T, L)                                                                          \
-    template void bulk_update<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                \
-                                    const BulkCoefficients<T> &, T *, BulkPhase);                            \
-    template void bulk_update_threads<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,        \
+#define HAPTIC_BULK_INSTANCES(T, L)                                                                                    \
+    template void bulk_update<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                           \
+                                    const BulkCoefficients<T> &, T *, BulkPhase);                                      \
+    template void bulk_update_threads<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                   \
                                             const BulkCoefficients<T> &, int, T *);
 HAPTIC_BULK_INSTANCES(float, false)
 HAPTIC_BULK_INSTANCES(float, true)
@@ -196,10 +196,13 @@ HAPTIC_BULK_INSTANCES(double, true)
 const char *bulk_update_isa()
 {
     switch (kernel_isa_level()) {
-    case 2: return "x86-64-v4 (AVX-512, 512-bit vectors)";
-    case 1: return "x86-64-v3 (AVX2+FMA)";
-    default: return "baseline";
+    case 2:
+        return "x86-64-v4 (AVX-512, 512-bit vectors)";
+    case 1:
+        return "x86-64-v3 (AVX2+FMA)";
+    default:
+        return "baseline";
     }
 }
 
-}  // namespace calib::engine
+} // namespace calib::engine

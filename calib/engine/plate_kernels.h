@@ -31,9 +31,9 @@ namespace calib::engine {
 
 template <typename T>
 struct BulkCoefficients {
-    T g;    // (1 - sigma0 k) / (1 + sigma0 k)
-    T mu2;  // (kappa k / h^2)^2 / (1 + sigma0 k)
-    T nu1;  // 2 sigma1 k / h^2 / (1 + sigma0 k) (only the lossy kernel reads it)
+    T g;   // (1 - sigma0 k) / (1 + sigma0 k)
+    T mu2; // (kappa k / h^2)^2 / (1 + sigma0 k)
+    T nu1; // 2 sigma1 k / h^2 / (1 + sigma0 k) (only the lossy kernel reads it)
 };
 
 // Rows are `stride` elements apart in all arrays (same layout). Updates rows
@@ -69,4 +69,4 @@ const char *bulk_update_isa();
 // (always 0 where the build has no run-time dispatch).
 int kernel_isa_level();
 
-}  // namespace calib::engine
+} // namespace calib::engine

@@ -14,9 +14,12 @@ namespace calib::engine {
 const char *edge_kind_name(EdgeKind kind)
 {
     switch (kind) {
-    case EdgeKind::clamped: return "clamped";
-    case EdgeKind::simply_supported: return "simply_supported";
-    case EdgeKind::free: return "free";
+    case EdgeKind::clamped:
+        return "clamped";
+    case EdgeKind::simply_supported:
+        return "simply_supported";
+    case EdgeKind::free:
+        return "free";
     }
     return "?";
 }
@@ -31,9 +34,9 @@ Loss loss_from_t60(double kappa, double f1, double t1, double f2, double t2)
         std::swap(f1, f2);
         std::swap(t1, t2);
     }
-    const double xi1 = 2 * std::numbers::pi * f1 / kappa;  // beta^2 = omega / kappa
+    const double xi1 = 2 * std::numbers::pi * f1 / kappa; // beta^2 = omega / kappa
     const double xi2 = 2 * std::numbers::pi * f2 / kappa;
-    const double s1 = decay_rate_of_t60_1_s(t1);  // amplitude decay rates
+    const double s1 = decay_rate_of_t60_1_s(t1); // amplitude decay rates
     const double s2 = decay_rate_of_t60_1_s(t2);
     Loss loss;
     loss.sigma1 = (s2 - s1) / (xi2 - xi1);
@@ -83,7 +86,8 @@ using Row = std::vector<Term>;
 // Second difference along one axis at index `a` of [0, n]: interior, or an
 // edge with its ghost rule. Returns false when the edge is free (the
 // difference is eliminated by the zero-moment condition).
-bool second_difference(int a, int n, EdgeKind low, EdgeKind high, double inv_h2, std::vector<std::pair<int, double>> &out)
+bool second_difference(int a, int n, EdgeKind low, EdgeKind high, double inv_h2,
+                       std::vector<std::pair<int, double>> &out)
 {
     out.clear();
     if (a > 0 && a < n) {
@@ -93,14 +97,19 @@ bool second_difference(int a, int n, EdgeKind low, EdgeKind high, double inv_h2,
     const EdgeKind kind = a == 0 ? low : high;
     const int inner = a == 0 ? 1 : n - 1;
     switch (kind) {
-    case EdgeKind::free: return false;
-    case EdgeKind::clamped: out = {{a, -2 * inv_h2}, {inner, 2 * inv_h2}}; return true;  // ghost = +u_inner
-    case EdgeKind::simply_supported: out = {{a, -2 * inv_h2}}; return true;              // ghost = -u_inner
+    case EdgeKind::free:
+        return false;
+    case EdgeKind::clamped:
+        out = {{a, -2 * inv_h2}, {inner, 2 * inv_h2}};
+        return true; // ghost = +u_inner
+    case EdgeKind::simply_supported:
+        out = {{a, -2 * inv_h2}};
+        return true; // ghost = -u_inner
     }
     return false;
 }
 
-}  // namespace
+} // namespace
 
 PlateOperator::PlateOperator(const PlateParams &params, const Grid &grid) : params_(params), grid_(grid)
 {
@@ -342,4 +351,4 @@ std::vector<PlateOperator::NodeWeight> PlateOperator::point_weights(double x, do
     return out;
 }
 
-}  // namespace calib::engine
+} // namespace calib::engine

@@ -104,7 +104,7 @@ struct Grid {
 Grid make_grid(double size_x_m, double size_y_m, double h_max_m);
 
 class PlateOperator {
-public:
+  public:
     using SparseMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
     // Throws std::invalid_argument on non-positive sizes or grids below 2x2
@@ -155,10 +155,7 @@ public:
     // The edge band: nodes within one cell of an edge, whose rows of M^-1 K
     // differ from the interior 13-point stencil (the engine applies them as
     // sparse rows; the rest is its bulk kernel).
-    bool in_edge_band(int i, int j) const
-    {
-        return i < 2 || i > grid_.nx - 2 || j < 2 || j > grid_.ny - 2;
-    }
+    bool in_edge_band(int i, int j) const { return i < 2 || i > grid_.nx - 2 || j < 2 || j > grid_.ny - 2; }
 
     // K and Gm as the sums they are built from, restricted to the terms that
     // touch the edge band:  sum_f weight_f (a_f b_f^T + b_f a_f^T) / 2  over
@@ -176,14 +173,14 @@ public:
         double scale = 0;
     };
     struct FormTerm {
-        std::size_t a = 0, b = 0;  // indices into edge_stencils()
+        std::size_t a = 0, b = 0; // indices into edge_stencils()
         double weight = 0;
     };
     const std::vector<Stencil> &edge_stencils() const { return edge_stencils_; }
     const std::vector<FormTerm> &edge_stiffness_terms() const { return edge_stiffness_terms_; }
     const std::vector<FormTerm> &edge_dirichlet_terms() const { return edge_dirichlet_terms_; }
 
-private:
+  private:
     void assemble();
 
     PlateParams params_;
@@ -201,4 +198,4 @@ private:
     mutable double lambda_g_ = -1;
 };
 
-}  // namespace calib::engine
+} // namespace calib::engine

@@ -21,10 +21,10 @@ namespace calib::engine {
 // Up to four nodes of the field (bilinear weights; held nodes left out).
 struct PointTaps {
     std::size_t count = 0;
-    std::array<std::ptrdiff_t, 4> index{};  // where the engine keeps each node's w
-    std::array<double, 4> weight{};         // phi
-    std::array<double, 4> gain{};           // phi * displacement per newton of one step
-    double g = 0;                           // sum weight * gain
+    std::array<std::ptrdiff_t, 4> index{}; // where the engine keeps each node's w
+    std::array<double, 4> weight{};        // phi
+    std::array<double, 4> gain{};          // phi * displacement per newton of one step
+    double g = 0;                          // sum weight * gain
 };
 
 // W at step n+1 (before the extension's force), n and n-1.
@@ -33,7 +33,7 @@ struct PointLevels {
 };
 
 class PointField {
-public:
+  public:
     virtual double time_step() const = 0;
     // Largest eigenvalue of M^-1 K of the plate: an explicit spring added at a
     // point must fit in the margin 1 - k^2 lambda / 4 the time step leaves.
@@ -45,15 +45,15 @@ public:
     // Adds the displacement a force (N) applied during this step causes.
     virtual void apply(const PointTaps &point, double force_n) = 0;
 
-protected:
+  protected:
     ~PointField() = default;
 };
 
 // An effect with a state of its own, called by the engine once per step.
 class PointExtension {
-public:
+  public:
     virtual ~PointExtension() = default;
     virtual void after_update(PointField &field) = 0;
 };
 
-}  // namespace calib::engine
+} // namespace calib::engine

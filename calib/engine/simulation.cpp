@@ -27,7 +27,7 @@ namespace {
 // loaded 2-core machine (run(500) on a 40 x 30 grid: 56 instead of 2.3 us per
 // step; docs/engine.md, "Stability suite").
 class ThreadFlushDenormals {
-public:
+  public:
     ThreadFlushDenormals()
     {
 #ifdef SIMULATION_HAVE_MXCSR
@@ -44,13 +44,13 @@ public:
     ThreadFlushDenormals(const ThreadFlushDenormals &) = delete;
     ThreadFlushDenormals &operator=(const ThreadFlushDenormals &) = delete;
 
-private:
+  private:
     unsigned saved_ = 0;
 };
 
 using io::fmt;
 
-}  // namespace
+} // namespace
 
 void check_stable_time_step(const PlateOperator &op, double k)
 {
@@ -72,10 +72,7 @@ void check_stable_time_step(const PlateOperator &op, double k)
     op.check_time_step(k);
 }
 
-const char *precision_name(Precision p)
-{
-    return p == Precision::f32 ? "float" : "double";
-}
+const char *precision_name(Precision p) { return p == Precision::f32 ? "float" : "double"; }
 
 Simulation::Simulation(std::shared_ptr<const PlateOperator> op, const SimulationOptions &options)
     : op_(std::move(op)), options_(options)
@@ -86,9 +83,9 @@ Simulation::Simulation(std::shared_ptr<const PlateOperator> op, const Simulation
             m = std::make_shared<const mindlin::MindlinOperator>(op_->params(), op_->grid());
         else if (m->grid().nx != op_->grid().nx || m->grid().ny != op_->grid().ny || m->grid().h != op_->grid().h)
             throw std::invalid_argument("thick_plate: the Mindlin operator is of another grid than the plate");
-        options_.precision = Precision::f64;  // the Mindlin engine is double only
+        options_.precision = Precision::f64; // the Mindlin engine is double only
         if (options_.time_step_s > 0)
-            k_ = options_.time_step_s;  // MindlinEngine checks it against its own bound
+            k_ = options_.time_step_s; // MindlinEngine checks it against its own bound
         else if (!(options_.courant > 0 && options_.courant < 1))
             throw std::invalid_argument("courant factor must lie in (0, 1)");
         else
@@ -155,10 +152,7 @@ void Simulation::set_source_signal(std::size_t source, std::vector<double> force
     signal_start_.at(source) = steps_done();
 }
 
-void Simulation::set_source_impulse(std::size_t source)
-{
-    set_source_signal(source, {1.0 / k_});
-}
+void Simulation::set_source_impulse(std::size_t source) { set_source_signal(source, {1.0 / k_}); }
 
 std::size_t Simulation::steps_for(double duration_s) const
 {
@@ -187,7 +181,8 @@ void Simulation::run(std::size_t steps)
             last_clean_scan_ = e->steps_done();
             return;
         }
-        fail("simulation diverged: " + what + "; detected by " + detected_by + "; the whole field was finite after step " +
+        fail("simulation diverged: " + what + "; detected by " + detected_by +
+             "; the whole field was finite after step " +
              (last_clean_scan_ == 0 ? std::string("0 (the start)") : std::to_string(last_clean_scan_ - 1)));
     };
     // Step index (0-based) of the state just computed, against the lattice schedule.
@@ -217,10 +212,11 @@ void Simulation::run(std::size_t steps)
                     const double force = idx < signals_[s].size() ? signals_[s][idx] : 0.0;
                     if (!std::isfinite(force) || std::abs(force) > double(std::numeric_limits<T>::max()))
                         fail("non-finite force (" + fmt("%g", force) + " N" +
-                             (std::isfinite(force) ? std::string(", beyond the range of ") + precision_name(options_.precision)
-                                                   : std::string()) +
-                             ") at source " + std::to_string(s) + " at step " + std::to_string(now) + " (t = " +
-                             fmt("%.6g", double(now) * k_) + " s, sample " + std::to_string(idx) +
+                             (std::isfinite(force)
+                                  ? std::string(", beyond the range of ") + precision_name(options_.precision)
+                                  : std::string()) +
+                             ") at source " + std::to_string(s) + " at step " + std::to_string(now) +
+                             " (t = " + fmt("%.6g", double(now) * k_) + " s, sample " + std::to_string(idx) +
                              " of its signal); refused before it reached the field");
                     e->set_source_force(s, force);
                 }
@@ -240,7 +236,7 @@ void Simulation::run(std::size_t steps)
                     const double v = traces_[r].back();
                     for (auto &t : traces_)
                         t.pop_back();
-                    scan(e, "receiver " + std::to_string(r));  // throws if the receiver's nodes are non-finite
+                    scan(e, "receiver " + std::to_string(r)); // throws if the receiver's nodes are non-finite
                     fail("non-finite value (" + fmt("%g", v) + ") read at receiver " + std::to_string(r) + " at step " +
                          std::to_string(now) + " (t = " + fmt("%.6g", double(now + 1) * k_) +
                          " s) from finite node values (overflow)");
@@ -274,4 +270,4 @@ double Simulation::energy() const
     return std::visit([](auto &e) { return e->energy(); }, engine_);
 }
 
-}  // namespace calib::engine
+} // namespace calib::engine

@@ -37,15 +37,15 @@ namespace calib::engine {
 namespace mindlin {
 class MindlinOperator;
 class MindlinEngine;
-}  // namespace mindlin
+} // namespace mindlin
 
 enum class Precision { f32, f64 };
 const char *precision_name(Precision p);
 
 struct SimulationOptions {
     Precision precision = Precision::f32;
-    double courant = 0.95;    // fraction of the stability bound used when time_step_s == 0
-    double time_step_s = 0;   // forced step; refused if not below the bound
+    double courant = 0.95;  // fraction of the stability bound used when time_step_s == 0
+    double time_step_s = 0; // forced step; refused if not below the bound
     // Whole-field NaN/Inf scan every this many steps (and at the end of every
     // run()); 0 scans only at the end of run(). Cheap: an integer test of the
     // exponent bits, measured in docs/engine.md ("Stability suite").
@@ -70,7 +70,7 @@ struct SimulationOptions {
 void check_stable_time_step(const PlateOperator &op, double k);
 
 class Simulation {
-public:
+  public:
     Simulation(std::shared_ptr<const PlateOperator> op, const SimulationOptions &options);
     ~Simulation();
     Simulation(Simulation &&) noexcept;
@@ -107,7 +107,7 @@ public:
 
     // traces()[r][n]: displacement (m) of receiver r after step n.
     const std::vector<std::vector<double>> &traces() const { return traces_; }
-    std::vector<double> snapshot() const;  // node grid, row-major (j, i)
+    std::vector<double> snapshot() const; // node grid, row-major (j, i)
     // Decimated whole-field recording: w at every `stride`-th node of both axes
     // (from node (0, 0)), after step `first_step` and every `interval` steps
     // after it, appended to lattice_frames() ([frame][point], row-major). A copy
@@ -122,16 +122,16 @@ public:
         out.clear();
         out.swap(lattice_frames_);
     }
-    double energy() const;  // the plate's (J); a finger's own energy is not included
+    double energy() const; // the plate's (J); a finger's own energy is not included
 
-private:
+  private:
     std::shared_ptr<const PlateOperator> op_;
     SimulationOptions options_;
     double k_ = 0;
     std::variant<std::unique_ptr<PlateEngine<float>>, std::unique_ptr<PlateEngine<double>>,
                  std::unique_ptr<mindlin::MindlinEngine>>
         engine_;
-    std::vector<std::function<double()>> finger_force_;  // reads the last step's force of each finger
+    std::vector<std::function<double()>> finger_force_; // reads the last step's force of each finger
     std::vector<std::vector<double>> finger_forces_;
     std::vector<std::vector<double>> signals_;
     std::vector<std::size_t> signal_start_;
@@ -139,8 +139,8 @@ private:
     int lattice_stride_ = 0;
     std::size_t lattice_first_ = 0, lattice_interval_ = 1;
     std::vector<float> lattice_frames_;
-    std::size_t last_clean_scan_ = 0;  // steps_done() at the last whole-field scan that found nothing
-    std::string failure_;              // set once a non-finite value was found
+    std::size_t last_clean_scan_ = 0; // steps_done() at the last whole-field scan that found nothing
+    std::string failure_;             // set once a non-finite value was found
 };
 
-}  // namespace calib::engine
+} // namespace calib::engine

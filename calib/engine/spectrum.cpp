@@ -12,22 +12,16 @@
 
 namespace calib::engine {
 
-SerialEigen::SerialEigen() : saved_(omp_get_max_threads())
-{
-    omp_set_num_threads(1);
-}
+SerialEigen::SerialEigen() : saved_(omp_get_max_threads()) { omp_set_num_threads(1); }
 
-SerialEigen::~SerialEigen()
-{
-    omp_set_num_threads(saved_);
-}
+SerialEigen::~SerialEigen() { omp_set_num_threads(saved_); }
 
 double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag, int dense_limit)
 {
     const Eigen::Index n = a.rows();
     if (n == 0)
         return 0.0;
-    SerialEigen serial;  // every caller: a product per Lanczos step is too short for a team
+    SerialEigen serial; // every caller: a product per Lanczos step is too short for a team
     const Eigen::VectorXd s = m_diag.cwiseSqrt().cwiseInverse();
     if (n <= dense_limit) {
         Eigen::MatrixXd d = s.asDiagonal() * Eigen::MatrixXd(a) * s.asDiagonal();
@@ -67,7 +61,7 @@ double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::Vec
             last = top;
         }
         if (be <= 1e-14 * std::abs(top))
-            return top;  // invariant subspace found
+            return top; // invariant subspace found
         beta.push_back(be);
         v_prev = v;
         v = w / be;
@@ -75,8 +69,8 @@ double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::Vec
     return last;
 }
 
-std::vector<double> lowest_generalized_eigenvalues(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag,
-                                                   int count, double shift)
+std::vector<double> lowest_generalized_eigenvalues(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag, int count,
+                                                   double shift)
 {
     const Eigen::Index n = a.rows();
     if (count <= 0 || count > n)
@@ -115,4 +109,4 @@ std::vector<double> lowest_generalized_eigenvalues(const SparseRowMatrix &a, con
     return std::vector<double>(lam.data(), lam.data() + count);
 }
 
-}  // namespace calib::engine
+} // namespace calib::engine

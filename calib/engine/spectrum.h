@@ -20,13 +20,13 @@ using SparseRowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 // study, whose every perturbed plate finds its bound.
 // omp_set_num_threads changes only the calling thread's setting.
 class SerialEigen {
-public:
+  public:
     SerialEigen();
     ~SerialEigen();
     SerialEigen(const SerialEigen &) = delete;
     SerialEigen &operator=(const SerialEigen &) = delete;
 
-private:
+  private:
     int saved_;
 };
 
@@ -36,13 +36,12 @@ private:
 // above, until the Ritz value is stable to ~1e-12 or after
 // lanczos_max_iterations products with A.
 inline constexpr int lanczos_max_iterations = 300;
-double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag,
-                                      int dense_limit = 1200);
+double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag, int dense_limit = 1200);
 
 // The `count` lowest eigenvalues of A v = lambda M v, by shift-invert subspace
 // iteration (sparse LDL^T of A + shift M; `shift` > 0 also handles the rigid
 // modes of a free plate). Ascending; converged to ~1e-11 relative.
-std::vector<double> lowest_generalized_eigenvalues(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag,
-                                                   int count, double shift);
+std::vector<double> lowest_generalized_eigenvalues(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag, int count,
+                                                   double shift);
 
-}  // namespace calib::engine
+} // namespace calib::engine

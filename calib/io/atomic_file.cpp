@@ -35,7 +35,8 @@ void write_stream_atomic(const std::string &path, const std::function<void(std::
 
 void write_file_atomic(const std::string &path, std::string_view bytes)
 {
-    write_stream_atomic(path, [&](std::ostream &out) { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
+    write_stream_atomic(
+        path, [&](std::ostream &out) { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
 }
 
-}  // namespace calib::io
+} // namespace calib::io

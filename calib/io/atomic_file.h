@@ -16,4 +16,4 @@ void write_file_atomic(const std::string &path, std::string_view bytes);
 // If `fill` throws, the temporary file is removed and the exception passes on.
 void write_stream_atomic(const std::string &path, const std::function<void(std::ostream &)> &fill);
 
-}  // namespace calib::io
+} // namespace calib::io

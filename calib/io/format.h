@@ -24,4 +24,4 @@ std::string fmt(const char *format, Value value, More... more)
     return s;
 }
 
-}  // namespace calib::io
+} // namespace calib::io

@@ -15,4 +15,4 @@ std::optional<std::string> read_file(const std::string &path)
     return bytes.str();
 }
 
-}  // namespace calib::io
+} // namespace calib::io

@@ -10,4 +10,4 @@ namespace calib::io {
 // the file was for).
 std::optional<std::string> read_file(const std::string &path);
 
-}  // namespace calib::io
+} // namespace calib::io

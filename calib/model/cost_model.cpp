@@ -39,8 +39,8 @@ double time_one(const std::shared_ptr<const engine::PlateOperator> &op, engine::
     for (std::size_t r = 0; r < receivers; r++)
         sim.add_receiver((0.05 + 0.9 * double(r) / double(receivers)) * x, 0.93 * y);
     std::vector<float> frames;
-    sim.run(10);  // warm-up
-    double best = INFINITY;  // the fastest of three: a shared machine only ever slows it down
+    sim.run(10);            // warm-up
+    double best = INFINITY; // the fastest of three: a shared machine only ever slows it down
     for (int rep = 0; rep < 3; rep++) {
         const auto t0 = Clock::now();
         sim.run(steps);
@@ -51,7 +51,7 @@ double time_one(const std::shared_ptr<const engine::PlateOperator> &op, engine::
     return best;
 }
 
-}  // namespace
+} // namespace
 
 double measure_seconds_per_step(const std::shared_ptr<const engine::PlateOperator> &plate,
                                 const engine::SimulationOptions &options, std::size_t receivers, double node_steps)
@@ -76,7 +76,8 @@ CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::Cal
     const double recording_rate = 1.0 / (double(plan.site_decimation) * plan.time_step_s);
     std::vector<double> trace((plan.window_steps + plan.site_decimation - 1) / plan.site_decimation);
     for (size_t n = 0; n < trace.size(); n++)
-        trace[n] = std::sin(0.01 * double(n * plan.site_decimation)) * std::exp(-1e-4 * double(n * plan.site_decimation));
+        trace[n] =
+            std::sin(0.01 * double(n * plan.site_decimation)) * std::exp(-1e-4 * double(n * plan.site_decimation));
     const auto t0 = Clock::now();
     const int reps = 3;
     for (int r = 0; r < reps; r++)
@@ -94,7 +95,8 @@ double simulation_bytes(std::size_t nodes, engine::Precision p, std::size_t rece
 double reciprocity_recording_bytes(const pipeline::CalibrationPlan &plan)
 {
     const double samples = std::ceil(double(plan.window_steps) / double(plan.site_decimation));
-    return double(plan.sites.size()) * samples * 8 + 2.0 * double(pipeline::site_recording_chunk_frames) * double(plan.nodes) * 4;
+    return double(plan.sites.size()) * samples * 8 +
+           2.0 * double(pipeline::site_recording_chunk_frames) * double(plan.nodes) * 4;
 }
 
 namespace {
@@ -107,14 +109,14 @@ bool searched_by_verdict(const pipeline::CalibrationInput &in)
            pipeline::transfer_holds(in);
 }
 
-}  // namespace
+} // namespace
 
 Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan, const CostModel *cost)
 {
     Prediction p;
     const double P = cost ? cost->threads : std::max(1, omp_get_max_threads());
     const double emitters = double(plan.emitters.size()), sites = double(plan.sites.size());
-    const double K = double(in.foci.points.size());  // every focus is verified (the placement weighs a subset)
+    const double K = double(in.foci.points.size()); // every focus is verified (the placement weighs a subset)
     // The Mindlin engine is double whatever the scene asks (engine/simulation.h).
     const engine::Precision prec = in.effects.thick_plate ? engine::Precision::f64 : in.simulation.precision;
     // Memory: each running simulation keeps its field and traces; the
@@ -130,9 +132,11 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
     // The verification keeps, per focus, the displacement at every focus
     // (double) over the drive and its tail: K^2 traces, the term that grows
     // fastest with a dense grid.
-    const double verification_mb = K * K * 8 *
-                                   std::ceil((in.calibration.truncate_fraction * in.calibration.window_s +
-                                              in.calibration.verify_tail_s) * plan.search_rate_hz) / mb;
+    const double verification_mb =
+        K * K * 8 *
+        std::ceil((in.calibration.truncate_fraction * in.calibration.window_s + in.calibration.verify_tail_s) *
+                  plan.search_rate_hz) /
+        mb;
     if (plan.transfer)
         p.traces_mb += verification_mb;
     // The search by the verdict (pipeline/placement_verdict.h): its probe
@@ -147,7 +151,7 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
                           std::max(0.0, pipeline::model_budget_bytes / row_bytes - emitters));
         judged = 2 + in.exciters.verdict_rounds;
         p.verdict_probes = probes;
-        p.traces_mb += 2 * verification_mb;  // the best, the last searched and the current judgement
+        p.traces_mb += 2 * verification_mb; // the best, the last searched and the current judgement
         // The transfer cache keeps a channel block per site judged (at most
         // every exciter of every placement judged), and three H are alive at once.
         const double cached_sites = std::min(sites, judged * double(in.exciters.count));
@@ -159,9 +163,9 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
         return p;
     p.simulate_s = (cost->seconds_per_step_simulate * double(plan.site_steps) + sites * cost->seconds_per_resample) *
                    std::ceil((emitters + probes) / P);
-    if (judged > 0)  // at most every exciter of every placement judged is new to the transfer cache
-        p.simulate_s += cost->seconds_per_step_verify * double(plan.transfer_steps) *
-                        std::ceil(judged * in.exciters.count / P);
+    if (judged > 0) // at most every exciter of every placement judged is new to the transfer cache
+        p.simulate_s +=
+            cost->seconds_per_step_verify * double(plan.transfer_steps) * std::ceil(judged * in.exciters.count / P);
     // Each verification pass runs every focus for the drive; a pass with
     // snapshots re-runs each focus to its focus instant (at most the kept window).
     const double kept_steps = pipeline::kept_window_s(in) / plan.time_step_s;
@@ -196,11 +200,11 @@ Prediction predict_verification(const pipeline::CalibrationInput &in, const pipe
     if (!cost)
         return p;
     const double kept_steps = pipeline::kept_window_s(in) / plan.time_step_s;
-    p.verify_s = plan.transfer ? cost->seconds_per_step_verify * double(plan.transfer_steps) *
-                                     std::ceil(in.exciters.count / P)
-                               : cost->seconds_per_step_verify * (double(plan.drive_steps) + kept_steps) * std::ceil(K / P);
+    p.verify_s = plan.transfer
+                     ? cost->seconds_per_step_verify * double(plan.transfer_steps) * std::ceil(in.exciters.count / P)
+                     : cost->seconds_per_step_verify * (double(plan.drive_steps) + kept_steps) * std::ceil(K / P);
     p.seconds = p.verify_s;
     return p;
 }
 
-}  // namespace calib::model
+} // namespace calib::model

@@ -23,9 +23,9 @@ struct CostModel {
     engine::Precision precision = engine::Precision::f32;
     double seconds_per_step_simulate = 0;
     double seconds_per_step_verify = 0;
-    double seconds_per_node_step = 0;  // the simulate figure per node, for reports
-    double seconds_per_resample = 0;   // soxr of one site's recording (the window, decimated) to the search rate
-    int threads = 1;                   // simulations that run at once (one core each)
+    double seconds_per_node_step = 0; // the simulate figure per node, for reports
+    double seconds_per_resample = 0;  // soxr of one site's recording (the window, decimated) to the search rate
+    int threads = 1;                  // simulations that run at once (one core each)
 };
 CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,
                        double node_steps = 1.5e7);
@@ -33,8 +33,7 @@ CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::Cal
 // Seconds per step of one simulation with `receivers` receivers and one
 // source, timed the same way (for `calibgen simulate`).
 double measure_seconds_per_step(const std::shared_ptr<const engine::PlateOperator> &plate,
-                                const engine::SimulationOptions &options, std::size_t receivers,
-                                double node_steps);
+                                const engine::SimulationOptions &options, std::size_t receivers, double node_steps);
 
 // Bytes one simulation holds while it runs: its field (three levels) and its
 // traces (a double per receiver per step).
@@ -44,19 +43,18 @@ double simulation_bytes(std::size_t nodes, engine::Precision p, std::size_t rece
 double reciprocity_recording_bytes(const pipeline::CalibrationPlan &plan);
 
 struct Prediction {
-    double seconds = 0;            // wall time of calibrate(): simulations and verification
+    double seconds = 0; // wall time of calibrate(): simulations and verification
     double simulate_s = 0, verify_s = 0;
-    double memory_mb = 0;          // peak resident memory, the process's current one included
-    double fields_mb = 0;          // the running simulations' fields (three levels each)
-    double traces_mb = 0;          // the running simulations' traces
-    double recordings_mb = 0;      // the stored recordings (pulse and impulse responses)
-    double verdict_probes = 0;     // ghost probes the search by the verdict may add (pipeline/placement_verdict.h)
+    double memory_mb = 0;      // peak resident memory, the process's current one included
+    double fields_mb = 0;      // the running simulations' fields (three levels each)
+    double traces_mb = 0;      // the running simulations' traces
+    double recordings_mb = 0;  // the stored recordings (pulse and impulse responses)
+    double verdict_probes = 0; // ghost probes the search by the verdict may add (pipeline/placement_verdict.h)
 };
 // Memory needs no timing: `cost` may be null, then seconds stay 0.
-Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,
-                   const CostModel *cost);
+Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan, const CostModel *cost);
 // `calibgen verify`: the plan's last verification pass alone (no recordings).
 Prediction predict_verification(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,
                                 const CostModel *cost);
 
-}  // namespace calib::model
+} // namespace calib::model

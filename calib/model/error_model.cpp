@@ -19,7 +19,7 @@ constexpr double pi = std::numbers::pi;
 
 using io::fmt;
 
-}  // namespace
+} // namespace
 
 double scene_f_max_hz(const scene::Scene &s)
 {
@@ -40,7 +40,7 @@ double predicted_phase_error(const physics::Material &m, double thickness_m, dou
     const double w = 2 * pi * f_hz;
     const double s = std::sin(w * time_step_s / 2) / (2 * mu);
     if (!(s > 0 && s <= 1))
-        return NAN;  // f beyond what the grid can carry
+        return NAN; // f beyond what the grid can carry
     const double beta = 2 / h_m * std::asin(std::sqrt(s));
     return (w / beta) / physics::a0_phase_velocity(m, thickness_m, f_hz) - 1;
 }
@@ -55,7 +55,7 @@ Choice choose_points_per_wavelength(const scene::Scene &s, double target)
         c.points_per_wavelength = N;
         c.h_m = engine::make_grid(s.plate.size_x_m, s.plate.size_y_m, lambda / N).h;
         c.effective_ppw = lambda / c.h_m;
-        const double k = s.simulation.courant * c.h_m * c.h_m / (4 * kappa);  // interior stability bound
+        const double k = s.simulation.courant * c.h_m * c.h_m / (4 * kappa); // interior stability bound
         c.predicted_error = predicted_phase_error(s.plate.material, s.plate.thickness_m, f, c.h_m, k);
         return c;
     };
@@ -87,4 +87,4 @@ std::optional<Choice> apply_accuracy_target(scene::Scene &s)
     return c;
 }
 
-}  // namespace calib::model
+} // namespace calib::model

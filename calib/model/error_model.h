@@ -27,8 +27,8 @@ double scene_f_max_hz(const scene::Scene &s);
 // grid up to 80 points per wavelength. Throws std::invalid_argument naming
 // calibration.accuracy when even that is not enough (the Kirchhoff model error).
 struct Choice {
-    double points_per_wavelength = 0;  // as the scene asks (nominal)
-    double effective_ppw = 0;          // lambda / h of the grid make_grid builds (h divides the plate)
+    double points_per_wavelength = 0; // as the scene asks (nominal)
+    double effective_ppw = 0;         // lambda / h of the grid make_grid builds (h divides the plate)
     double h_m = 0;
     double predicted_error = 0;
 };
@@ -36,4 +36,4 @@ Choice choose_points_per_wavelength(const scene::Scene &scene, double target);
 // Applies calibration.accuracy (if set) to scene.simulation; returns the choice.
 std::optional<Choice> apply_accuracy_target(scene::Scene &scene);
 
-}  // namespace calib::model
+} // namespace calib::model

@@ -40,7 +40,7 @@ double status_mb(const std::string &key)
     return 0;
 }
 
-}  // namespace
+} // namespace
 
 Limits machine_limits(std::optional<double> max_memory_mb, std::optional<double> max_seconds)
 {
@@ -70,9 +70,9 @@ void refuse_if_over(const std::string &what, double memory_mb, double seconds, c
     const bool time = limits.seconds && !(seconds <= *limits.seconds);
     if (!memory && !time)
         return;
-    std::string limit = memory ? "over this machine's " + fmt("%.0f MB", limits.memory_mb) + " (" +
-                                     limits.memory_source + ")"
-                               : "over the time limit of " + fmt("%g s", *limits.seconds) + " (--max-seconds)";
+    std::string limit =
+        memory ? "over this machine's " + fmt("%.0f MB", limits.memory_mb) + " (" + limits.memory_source + ")"
+               : "over the time limit of " + fmt("%g s", *limits.seconds) + " (--max-seconds)";
     throw std::runtime_error(what + ": refused before simulating: predicted " + fmt("%.0f MB", memory_mb) +
                              " peak memory and " + fmt("%.3g s", seconds) + ", " + limit + "; " + cause_key);
 }
@@ -92,8 +92,9 @@ std::string calibration_cause(const pipeline::CalibrationInput &in, const pipeli
                ") or set exciters.site_spacing_m";
     }
     const engine::Grid &g = in.plate->grid();
-    return fmt("%.0f", double(plan.window_steps)) + " steps per window on a grid of " + std::to_string(g.nx) + " x " + std::to_string(g.ny) + " cells of " +
-           fmt("%.3g mm", g.h * 1e3) + ": lower simulation.points_per_wavelength or simulation.f_max_hz";
+    return fmt("%.0f", double(plan.window_steps)) + " steps per window on a grid of " + std::to_string(g.nx) + " x " +
+           std::to_string(g.ny) + " cells of " + fmt("%.3g mm", g.h * 1e3) +
+           ": lower simulation.points_per_wavelength or simulation.f_max_hz";
 }
 
 Priced refuse_unaffordable(const pipeline::CalibrationInput &in, const Limits &limits, const std::string &what,
@@ -131,19 +132,19 @@ double small_plate_seconds_per_node_step()
     g.h = 0.003;
     auto op = std::make_shared<const engine::PlateOperator>(params, g);
     engine::SimulationOptions so;
-    so.time_step_s = 0.5 * g.h * g.h / (4 * op->kappa());  // well inside the interior bound
+    so.time_step_s = 0.5 * g.h * g.h / (4 * op->kappa()); // well inside the interior bound
     so.engine.skip_stability_check = true;
     return measure_seconds_per_step(op, so, 1, 1e6) / double(g.node_count());
 }
 
-}  // namespace
+} // namespace
 
 void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calibration, double duration_s,
                          std::size_t receivers)
 {
     const scene::PlateSpec &pl = s.plate;
     const double kappa = pl.material.kappa(pl.thickness_m);
-    const engine::Grid g = scene::plate_grid(s);  // refuses absurd grids, naming the cell count and the key
+    const engine::Grid g = scene::plate_grid(s); // refuses absurd grids, naming the cell count and the key
     const double nodes = double(g.nx + 1) * double(g.ny + 1);
     const double courant = s.simulation.courant > 0 && s.simulation.courant < 1 ? s.simulation.courant : 1.0;
     const double k = s.simulation.time_step_s ? *s.simulation.time_step_s : courant * g.h * g.h / (4 * kappa);
@@ -157,8 +158,9 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
         const double steps = std::ceil(duration_s / k);
         memory_mb += (simulation_bytes(std::size_t(nodes), prec, 0, 0) + double(receivers) * steps * 8) / mb;
         node_steps = nodes * steps;
-        cause = fmt("%.3g", steps) + " steps of " + fmt("%.3g s", k) + " on a grid of " + std::to_string(g.nx) +
-                " x " + std::to_string(g.ny) + " cells: shorten --duration, or lower simulation.points_per_wavelength or "
+        cause = fmt("%.3g", steps) + " steps of " + fmt("%.3g s", k) + " on a grid of " + std::to_string(g.nx) + " x " +
+                std::to_string(g.ny) +
+                " cells: shorten --duration, or lower simulation.points_per_wavelength or "
                 "simulation.f_max_hz";
     } else {
         if (!s.calibration_sections())
@@ -174,9 +176,9 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
         const bool fixed = s.exciters->placement == pipeline::PlacementMode::fixed;
         const double spacing = s.exciters->site_spacing_m.value_or(lambda / 8);
         if (!fixed && !(pipeline::lattice_points(band, spacing) <= pipeline::max_candidate_sites))
-            return;  // plan() refuses it, naming the key, before enumerating anything
-        const double sites = fixed ? double(s.exciters->positions.size())
-                                   : double(pipeline::candidate_sites(band, spacing).size());
+            return; // plan() refuses it, naming the key, before enumerating anything
+        const double sites =
+            fixed ? double(s.exciters->positions.size()) : double(pipeline::candidate_sites(band, spacing).size());
         const double threads = std::max(1, omp_get_max_threads());
         const double rate = pipeline::search_rate(*s.pulse);
         // The placement simulates the foci of its subset only (pipeline/placement/focus_subset.h).
@@ -190,7 +192,8 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
         const double decimation = double(pipeline::site_recording_options(k, rate).decimation);
         const double traces = std::min(threads, foci) *
                               (sites * std::ceil(window_steps / decimation) * 8 +
-                               2.0 * double(pipeline::site_recording_chunk_frames) * nodes * 4) / mb;
+                               2.0 * double(pipeline::site_recording_chunk_frames) * nodes * 4) /
+                              mb;
         const double recordings = 2 * foci * sites * s.calibration->window_s * rate * 4 / mb;
         const double fields = std::min(threads, foci) * simulation_bytes(std::size_t(nodes), prec, 0, 0) / mb;
         memory_mb += traces + recordings + fields;
@@ -198,10 +201,11 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
         if (traces + recordings >= fields) {
             cause = fmt("%.0f", sites) + " candidate sites x " + fmt("%.0f", std::ceil(window_steps / decimation)) +
                     " samples of recordings";
-            cause += s.exciters->site_spacing_m
-                         ? ": raise exciters.site_spacing_m (" + fmt("%g m", spacing) + ") or shorten calibration.window_s"
-                         : " (sites lambda/8 = " + fmt("%.3g mm", spacing * 1e3) + " apart): lower pulse.centre_hz (" +
-                               fmt("%g Hz", s.pulse->centre_hz) + ") or set exciters.site_spacing_m";
+            cause +=
+                s.exciters->site_spacing_m
+                    ? ": raise exciters.site_spacing_m (" + fmt("%g m", spacing) + ") or shorten calibration.window_s"
+                    : " (sites lambda/8 = " + fmt("%.3g mm", spacing * 1e3) + " apart): lower pulse.centre_hz (" +
+                          fmt("%g Hz", s.pulse->centre_hz) + ") or set exciters.site_spacing_m";
         } else {
             cause = fmt("%.0f", window_steps) + " steps per window on a grid of " + std::to_string(g.nx) + " x " +
                     std::to_string(g.ny) + " cells: lower simulation.points_per_wavelength or simulation.f_max_hz";
@@ -227,9 +231,9 @@ double peak_rss_mb() { return status_mb("VmHWM:"); }
 
 void reset_peak_rss()
 {
-    malloc_trim(0);  // hand freed heap back, so the peak counts what the next run needs
+    malloc_trim(0); // hand freed heap back, so the peak counts what the next run needs
     std::ofstream f("/proc/self/clear_refs");
-    f << "5";  // resets VmHWM (Linux >= 4.0)
+    f << "5"; // resets VmHWM (Linux >= 4.0)
 }
 
-}  // namespace calib::model
+} // namespace calib::model

@@ -12,9 +12,9 @@
 namespace calib::model {
 
 struct Limits {
-    double memory_mb = 0;       // refuse when the predicted peak exceeds this
-    std::string memory_source;  // "physical memory" or "--max-memory"
-    std::optional<double> seconds;  // refuse when the predicted time exceeds this (--max-seconds)
+    double memory_mb = 0;          // refuse when the predicted peak exceeds this
+    std::string memory_source;     // "physical memory" or "--max-memory"
+    std::optional<double> seconds; // refuse when the predicted time exceeds this (--max-seconds)
 };
 // Physical memory (sysconf) unless `max_memory_mb` is given; no time limit
 // unless `max_seconds` is given.
@@ -59,4 +59,4 @@ double current_rss_mb();
 double peak_rss_mb();
 void reset_peak_rss();
 
-}  // namespace calib::model
+} // namespace calib::model

@@ -53,15 +53,15 @@ Trig trig(double z)
     } else {
         const double s = std::sqrt(-z);
         t.scale = std::exp(-s);
-        t.S = s > 0 ? -std::expm1(-2 * s) / (2 * s) : 1.0;  // sinh(s) e^-s / s
-        t.C = 0.5 * (1.0 + std::exp(-2 * s));               // cosh(s) e^-s
+        t.S = s > 0 ? -std::expm1(-2 * s) / (2 * s) : 1.0; // sinh(s) e^-s / s
+        t.C = 0.5 * (1.0 + std::exp(-2 * s));              // cosh(s) e^-s
     }
     t.dC = -0.5 * t.S;
     if (std::abs(z) > 0.5) {
         t.dS = (t.C - t.S) / (2 * z);
     } else {
         // dS/dz = -sum_{n>=1} n (-z)^{n-1} / (2n+1)!
-        double term = 1.0 / 6.0, sum = 0;  // n = 1: 1/3!
+        double term = 1.0 / 6.0, sum = 0; // n = 1: 1/3!
         for (int n = 1; n <= 12; ++n) {
             sum += n * term;
             term *= -z / ((2.0 * n + 2) * (2.0 * n + 3));
@@ -115,12 +115,12 @@ GValue g_series(double a, double b)
             row = row * B + g[p][q];
         }
         v.G += Ap * row;
-        v.dG_db -= Ap * drow;                               // dB/db = -1
+        v.dG_db -= Ap * drow; // dB/db = -1
         if (p + 1 <= g_degree) {
             double row1 = 0;
             for (int q = g_degree - p - 1; q >= 0; --q)
                 row1 = row1 * B + g[p + 1][q];
-            v.dG_da -= (p + 1) * Ap * row1;                 // dA/da = -1
+            v.dG_da -= (p + 1) * Ap * row1; // dA/da = -1
         }
         Ap *= A;
     }
@@ -131,7 +131,7 @@ GValue g_series(double a, double b)
 // to round-off well beyond it; above it the direct form loses < 1 digit).
 constexpr double series_limit = 1.5;
 
-}  // namespace
+} // namespace
 
 namespace detail {
 
@@ -139,16 +139,16 @@ CharValue lamb_characteristic(ModeFamily family, double x, double W2, double r, 
 {
     const double a = r * W2 - x, b = W2 - x;
     const Trig ta = trig(a), tb = trig(b);
-    const double bx = W2 - 2 * x;  // b - x
+    const double bx = W2 - 2 * x; // b - x
     const double P = bx * bx, dP_dx = -4 * bx, dP_dW = 2 * bx;
     CharValue v{};
-    const bool series = form == CharForm::series ||
-                        (form == CharForm::automatic && std::max(std::abs(a), std::abs(b)) <= series_limit);
+    const bool series =
+        form == CharForm::series || (form == CharForm::automatic && std::max(std::abs(a), std::abs(b)) <= series_limit);
     if (family == ModeFamily::antisymmetric && series) {
         const GValue g = g_series(a, b);
         const double scale = ta.scale * tb.scale;
         const double G = g.G * scale, Ga = g.dG_da * scale, Gb = g.dG_db * scale;
-        const double E = (r - 1) * W2;  // a - b
+        const double E = (r - 1) * W2; // a - b
         const double T = W2 * W2 * tb.S * ta.C;
         v.F = P * E * G + T;
         v.dF_dx = dP_dx * E * G + P * E * (-Ga - Gb) + W2 * W2 * (-tb.dS * ta.C - tb.S * ta.dC);
@@ -172,7 +172,7 @@ CharValue lamb_characteristic(ModeFamily family, double x, double W2, double r, 
     return v;
 }
 
-}  // namespace detail
+} // namespace detail
 
 namespace {
 
@@ -197,8 +197,12 @@ double brent(Fn &&f, double lo, double hi, double flo, double fhi)
             d = e = b - a;
         }
         if (std::abs(fc) < std::abs(fb)) {
-            a = b; b = c; c = a;
-            fa = fb; fb = fc; fc = fa;
+            a = b;
+            b = c;
+            c = a;
+            fa = fb;
+            fb = fc;
+            fc = fa;
         }
         const double tol = 2 * std::numeric_limits<double>::epsilon() * std::abs(b) + 1e-300;
         const double m = 0.5 * (c - b);
@@ -253,10 +257,10 @@ std::vector<double> scan_grid(double W, double r, double K_hi)
     K.reserve(3 * n + 300);
     for (int i = 0; i <= n; ++i) {
         const double t = static_cast<double>(i) / n;
-        K.push_back(W * t);                                  // uniform in k
-        const double qh = W * t;                             // uniform in q h
+        K.push_back(W * t);      // uniform in k
+        const double qh = W * t; // uniform in q h
         K.push_back(std::sqrt((W - qh) * (W + qh)));
-        const double ph = W_L * t;                           // uniform in p h
+        const double ph = W_L * t; // uniform in p h
         K.push_back(std::sqrt((W_L - ph) * (W_L + ph)));
     }
     // Evanescent side (c < c_T): at most A0 and S0 live here.
@@ -310,7 +314,8 @@ std::vector<ModePoint> lamb_family(const Material &m, double thickness_m, double
             }
         }
         // The antisymmetric family always has its A0 root below c_T.
-        if (family != ModeFamily::antisymmetric || (!roots.empty() && *std::max_element(roots.begin(), roots.end()) > W))
+        if (family != ModeFamily::antisymmetric ||
+            (!roots.empty() && *std::max_element(roots.begin(), roots.end()) > W))
             break;
     }
     std::sort(roots.begin(), roots.end(), std::greater<>());
@@ -332,10 +337,10 @@ std::vector<ModePoint> sh_family(const Material &m, double thickness_m, double f
 {
     // omega^2 = c_T^2 (k^2 + (n pi / d)^2): SH_n, cut-off n c_T / (2d).
     const double h = 0.5 * thickness_m, ct = m.ct_m_s();
-    const double W = 2 * pi * f_hz * h / ct;  // omega h / c_T
+    const double W = 2 * pi * f_hz * h / ct; // omega h / c_T
     std::vector<ModePoint> out;
     for (int n = 0;; ++n) {
-        const double cut = 0.5 * pi * n;      // (n pi / d) h
+        const double cut = 0.5 * pi * n; // (n pi / d) h
         if (cut >= W)
             break;
         const double K = std::sqrt((W - cut) * (W + cut));
@@ -347,7 +352,7 @@ std::vector<ModePoint> sh_family(const Material &m, double thickness_m, double f
     return out;
 }
 
-}  // namespace
+} // namespace
 
 std::string ModePoint::name() const
 {
@@ -404,10 +409,7 @@ double a0_wavelength(const Material &m, double thickness_m, double f_hz)
     return a0_mode(m, thickness_m, f_hz).wavelength_m;
 }
 
-double kirchhoff_phase_velocity_m_s(double kappa_m2_s, double f_hz)
-{
-    return std::sqrt(2 * pi * f_hz * kappa_m2_s);
-}
+double kirchhoff_phase_velocity_m_s(double kappa_m2_s, double f_hz) { return std::sqrt(2 * pi * f_hz * kappa_m2_s); }
 
 double kirchhoff_group_velocity_m_s(double kappa_m2_s, double f_hz)
 {
@@ -465,7 +467,7 @@ MindlinRoot mindlin_root(const Material &m, double d, double f_hz, MindlinShear 
     return {k, k / std::sqrt(w2) * (-dphi_dk2 / dphi_dw2)};
 }
 
-}  // namespace
+} // namespace
 
 double mindlin_phase_velocity(const Material &m, double thickness_m, double f_hz, MindlinShear choice)
 {
@@ -503,12 +505,20 @@ std::vector<double> cutoff_frequencies(const Material &m, double thickness_m, Mo
             out.push_back(n * base);
     };
     switch (family) {
-    case ModeFamily::antisymmetric: add(fT, 1, 2); add(fL, 2, 2); break;
-    case ModeFamily::symmetric: add(fT, 2, 2); add(fL, 1, 2); break;
-    case ModeFamily::shear_horizontal: add(fT, 1, 1); break;
+    case ModeFamily::antisymmetric:
+        add(fT, 1, 2);
+        add(fL, 2, 2);
+        break;
+    case ModeFamily::symmetric:
+        add(fT, 2, 2);
+        add(fL, 1, 2);
+        break;
+    case ModeFamily::shear_horizontal:
+        add(fT, 1, 1);
+        break;
     }
     std::sort(out.begin(), out.end());
     return out;
 }
 
-}  // namespace calib::physics
+} // namespace calib::physics

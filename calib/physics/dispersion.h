@@ -20,14 +20,14 @@ enum class ModeFamily { antisymmetric, symmetric, shear_horizontal };
 
 struct ModePoint {
     ModeFamily family = ModeFamily::antisymmetric;
-    int order = 0;                  // n in A_n / S_n / SH_n, counted at this frequency
+    int order = 0; // n in A_n / S_n / SH_n, counted at this frequency
     double f_hz = 0;
-    double wavenumber_rad_m = 0;    // k
-    double phase_velocity_m_s = 0;  // omega / k
-    double group_velocity_m_s = 0;  // d omega / d k (negative on backward-wave branches)
-    double wavelength_m = 0;        // 2 pi / k
+    double wavenumber_rad_m = 0;   // k
+    double phase_velocity_m_s = 0; // omega / k
+    double group_velocity_m_s = 0; // d omega / d k (negative on backward-wave branches)
+    double wavelength_m = 0;       // 2 pi / k
 
-    std::string name() const;       // "A0", "S1", "SH2", ...
+    std::string name() const; // "A0", "S1", "SH2", ...
 };
 
 // All propagating modes (real k > 0) at frequency f, sorted by family
@@ -72,8 +72,8 @@ double mindlin_group_velocity(const Material &m, double thickness_m, double f_hz
                               MindlinShear choice = MindlinShear::pi2_over_12);
 
 // Bulk and limit speeds of the plate's material.
-double rayleigh_speed(const Material &m);   // surface wave: the A0 and S0 limit at high f*d
-double plate_speed(const Material &m);      // sqrt(E / (rho (1 - nu^2))): S0 at low f*d
+double rayleigh_speed(const Material &m); // surface wave: the A0 and S0 limit at high f*d
+double plate_speed(const Material &m);    // sqrt(E / (rho (1 - nu^2))): S0 at low f*d
 
 // Analytic cut-off frequencies (k = 0) of the family's higher modes up to
 // f_max, ascending: A: (2n+1) c_T/(2d) and 2n c_L/(2d); S: 2n c_T/(2d) and
@@ -89,6 +89,6 @@ struct CharValue {
 };
 enum class CharForm { automatic, series, direct };
 CharValue lamb_characteristic(ModeFamily family, double x, double W2, double r, CharForm form = CharForm::automatic);
-}  // namespace detail
+} // namespace detail
 
-}  // namespace calib::physics
+} // namespace calib::physics

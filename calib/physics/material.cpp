@@ -13,10 +13,7 @@ void Material::validate() const
         throw std::invalid_argument("Poisson's ratio must lie in (-1, 0.5)");
 }
 
-double Material::shear_modulus_pa() const
-{
-    return youngs_pa / (2.0 * (1.0 + poisson));
-}
+double Material::shear_modulus_pa() const { return youngs_pa / (2.0 * (1.0 + poisson)); }
 
 double Material::cl_m_s() const
 {
@@ -24,15 +21,9 @@ double Material::cl_m_s() const
     return std::sqrt(youngs_pa * (1.0 - poisson) / (density_kg_m3 * (1.0 + poisson) * (1.0 - 2.0 * poisson)));
 }
 
-double Material::ct_m_s() const
-{
-    return std::sqrt(shear_modulus_pa() / density_kg_m3);
-}
+double Material::ct_m_s() const { return std::sqrt(shear_modulus_pa() / density_kg_m3); }
 
-double Material::speed_ratio_squared() const
-{
-    return (1.0 - 2.0 * poisson) / (2.0 * (1.0 - poisson));
-}
+double Material::speed_ratio_squared() const { return (1.0 - 2.0 * poisson) / (2.0 * (1.0 - poisson)); }
 
 double Material::bending_stiffness(double thickness_m) const
 {
@@ -83,11 +74,11 @@ Material material_from_speeds(double rho, double cl, double ct, std::string name
     if (!(rho > 0) || !(cl > 0) || !(ct > 0) || !std::isfinite(rho) || !std::isfinite(cl) || !std::isfinite(ct))
         throw std::invalid_argument("density and wave speeds must be positive and finite");
     const double r2 = (ct / cl) * (ct / cl);
-    if (!(r2 < 0.75))  // nu > -1  <=>  ct/cl < sqrt(3)/2
+    if (!(r2 < 0.75)) // nu > -1  <=>  ct/cl < sqrt(3)/2
         throw std::invalid_argument("c_T must be below sqrt(3)/2 c_L for a physical Poisson's ratio");
     const double nu = (1 - 2 * r2) / (2 * (1 - r2));
     const double E = 2 * rho * ct * ct * (1 + nu);
     return material_from_elastic(rho, E, nu, std::move(name));
 }
 
-}  // namespace calib::physics
+} // namespace calib::physics

@@ -12,9 +12,9 @@ namespace calib::physics {
 
 struct Material {
     std::string name;
-    double density_kg_m3 = 0;   // rho
-    double youngs_pa = 0;       // E
-    double poisson = 0;         // nu
+    double density_kg_m3 = 0; // rho
+    double youngs_pa = 0;     // E
+    double poisson = 0;       // nu
     // What varies between panels and with the room (docs/robustness.md):
     // relative change of E per kelvin near room temperature (dE/E/dT, 1/K),
     // and the stated range of the loss factor eta in the audio band (0, 0:
@@ -26,7 +26,7 @@ struct Material {
     // nu lies in (-1, 0.5) (the range where the solid is stable).
     void validate() const;
 
-    double shear_modulus_pa() const;   // mu = E / (2 (1 + nu))
+    double shear_modulus_pa() const; // mu = E / (2 (1 + nu))
     // Longitudinal (bulk) speed c_L = sqrt(E (1 - nu) / (rho (1 + nu) (1 - 2 nu))).
     double cl_m_s() const;
     // Transverse (shear) speed c_T = sqrt(mu / rho).
@@ -55,4 +55,4 @@ std::string known_material_names();
 Material material_from_elastic(double density_kg_m3, double youngs_pa, double poisson, std::string name = "custom");
 Material material_from_speeds(double density_kg_m3, double cl_m_s, double ct_m_s, std::string name = "custom");
 
-}  // namespace calib::physics
+} // namespace calib::physics

@@ -24,7 +24,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-}  // namespace
+} // namespace
 
 void check_feasible(const CalibrationInput &in)
 {
@@ -35,9 +35,9 @@ void check_feasible(const CalibrationInput &in)
     for (size_t k = 0; k < in.foci.points.size(); k++) {
         const Point p = in.foci.points[k].at;
         if (!(p.x_m > 0 && p.x_m < lx && p.y_m > 0 && p.y_m < ly))
-            throw std::invalid_argument("foci: focus " + std::to_string(in.foci.points[k].id) +
-                                        io::fmt(" at (%g, %g) m is not inside the plate (0...%g, 0...%g)", p.x_m,
-                                                p.y_m, lx, ly));
+            throw std::invalid_argument(
+                "foci: focus " + std::to_string(in.foci.points[k].id) +
+                io::fmt(" at (%g, %g) m is not inside the plate (0...%g, 0...%g)", p.x_m, p.y_m, lx, ly));
     }
     // Foci are where a person touches: inside the active area.
     const Rect &area = in.active.area;
@@ -52,24 +52,26 @@ void check_feasible(const CalibrationInput &in)
     // the simulated plate (the source and receiver of each sit on its nodes).
     const double h = in.plate->grid().h;
     if (in.foci.pitch_m && *in.foci.pitch_m < h)
-        throw std::invalid_argument(io::fmt("foci.pitch_m: %g m is finer than the simulation grid spacing (%g m)",
-                                            *in.foci.pitch_m, h) +
-                                    ": foci closer than one grid cell are not distinct on the simulated plate");
+        throw std::invalid_argument(
+            io::fmt("foci.pitch_m: %g m is finer than the simulation grid spacing (%g m)", *in.foci.pitch_m, h) +
+            ": foci closer than one grid cell are not distinct on the simulated plate");
     const Rect &a = in.active.area;
     if (!(a.x0_m < a.x1_m && a.y0_m < a.y1_m && a.x0_m >= 0 && a.y0_m >= 0 && a.x1_m <= lx && a.y1_m <= ly))
         throw std::invalid_argument("active_area: the rectangle must lie on the plate with x0 < x1 and y0 < y1");
     const double crossing =
         std::hypot(lx, ly) / physics::kirchhoff_group_velocity_m_s(in.plate->kappa(), in.pulse.centre_hz);
     if (in.calibration.window_s < crossing)
-        throw std::invalid_argument(io::fmt("calibration.window_s: %g s is shorter than one crossing of the plate (%g s",
-                                            in.calibration.window_s, crossing) +
-                                    " along the diagonal at the A0 group velocity)");
+        throw std::invalid_argument(
+            io::fmt("calibration.window_s: %g s is shorter than one crossing of the plate (%g s",
+                    in.calibration.window_s, crossing) +
+            " along the diagonal at the A0 group velocity)");
     if (in.calibration.window_s * in.calibration.truncate_fraction < pulse_duration_s(in.pulse))
-        throw std::invalid_argument("calibration.truncate_fraction: the kept part of the window is shorter than the pulse");
+        throw std::invalid_argument(
+            "calibration.truncate_fraction: the kept part of the window is shorter than the pulse");
     if (in.tolerance)
         check_tolerance(in, *in.tolerance);
     if (in.robust)
-        ensemble_members(in, *in.robust);  // refuses members the scheme cannot take
+        ensemble_members(in, *in.robust); // refuses members the scheme cannot take
     const Band band = band_of(in);
     check_lead_time(in, in.exciters.placement == PlacementMode::fixed ? in.exciters.positions : plan(in).sites);
     if (in.exciters.placement == PlacementMode::fixed) {
@@ -94,7 +96,8 @@ void check_feasible(const CalibrationInput &in)
     }
     if (placed.size() < in.exciters.count)
         throw std::invalid_argument("exciters.count: the border band (frame_margin_m, clearance_m around the active "
-                                    "area) holds only " + std::to_string(placed.size()) + " exciters " +
+                                    "area) holds only " +
+                                    std::to_string(placed.size()) + " exciters " +
                                     io::fmt("%g", in.exciters.min_spacing_m) + " m apart, " +
                                     std::to_string(in.exciters.count) + " asked");
 }
@@ -117,7 +120,7 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
     //      verification of the best one judged stay.
     if (judged_by_verdict(in, search)) {
         const TransferMatrix H = search_by_verdict(in, search, progress, res);
-        if (in.robust)  // the robust design of the placement the plain design chose
+        if (in.robust) // the robust design of the placement the plain design chose
             signals_and_verification(in, H, progress, res);
         else
             finish_stages(in, H, progress, res);
@@ -136,4 +139,4 @@ CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progre
     return res;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

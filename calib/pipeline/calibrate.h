@@ -22,4 +22,4 @@ void check_feasible(const CalibrationInput &in);
 
 CalibrationResult calibrate(const CalibrationInput &in, const ProgressFn &progress = {});
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -21,7 +21,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-}  // namespace
+} // namespace
 
 void signals_and_verification(const CalibrationInput &in, const TransferMatrix &H, const ProgressFn &progress,
                               CalibrationResult &res, bool judge_only)
@@ -29,7 +29,7 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
     // 4. Drive signals from H: time reversal or the inverse filter.
     auto t0 = Clock::now();
     res.signals = in.calibration.method == DriveMethod::inverse_filter ? inverse_filter_signals(in, H, progress)
-                                                                      : signals_from_transfer(in, H);
+                                                                       : signals_from_transfer(in, H);
     // A robust design (the same method over the ensemble of plates) replaces
     // them; the plain design stays for the comparison.
     std::vector<DriveSignals> plain;
@@ -53,10 +53,11 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
     //    peak. Then the verification of the signals exactly as stored.
     t0 = Clock::now();
     const bool lti = transfer_holds(in);
-    res.full_scale_peak_m = lti ? focal_peaks(in, H, stored_samples(res.signals), in.calibration.output_rate_hz) : std::vector<double>{};
+    res.full_scale_peak_m =
+        lti ? focal_peaks(in, H, stored_samples(res.signals), in.calibration.output_rate_hz) : std::vector<double>{};
     if (!lti) {
-        const Verification full = verify_signals_forward(in, res.exciters, stored_samples(res.signals), in.calibration.output_rate_hz,
-                                                         progress, false);
+        const Verification full = verify_signals_forward(in, res.exciters, stored_samples(res.signals),
+                                                         in.calibration.output_rate_hz, progress, false);
         for (const FocusMetrics &m : full.foci)
             res.full_scale_peak_m.push_back(m.peak_m);
     }
@@ -67,10 +68,10 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
         const double amplitude = robust && !robust->amplitude_m.empty() ? robust->amplitude_m[f] : in.pulse.amplitude_m;
         requantize(res.signals[f], std::min(1.0, amplitude / res.full_scale_peak_m[f]), drive_options(in, f));
     }
-    const std::vector<std::vector<int16_t>> stored = stored_samples(res.signals);  // as the table holds them
-    res.verification = lti ? verify_signals_with(in, H, stored, in.calibration.output_rate_hz, progress)
-                           : verify_signals_forward(in, res.exciters, stored, in.calibration.output_rate_hz,
-                                                    progress, true);
+    const std::vector<std::vector<int16_t>> stored = stored_samples(res.signals); // as the table holds them
+    res.verification =
+        lti ? verify_signals_with(in, H, stored, in.calibration.output_rate_hz, progress)
+            : verify_signals_forward(in, res.exciters, stored, in.calibration.output_rate_hz, progress, true);
     res.times.verification_s = seconds_since(t0);
     if (!judge_only)
         finish_stages(in, H, progress, res, std::move(plain), robust ? &*robust : nullptr);
@@ -97,4 +98,4 @@ void finish_stages(const CalibrationInput &in, const TransferMatrix &H, const Pr
         res.tolerance = tolerance_stage(in, H, res, std::move(plain), robust, progress);
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -28,4 +28,4 @@ struct RobustDesign;
 void finish_stages(const CalibrationInput &in, const TransferMatrix &H, const ProgressFn &progress,
                    CalibrationResult &res, std::vector<DriveSignals> plain = {}, const RobustDesign *robust = nullptr);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -37,14 +37,14 @@ std::string focus_name(const CalibrationInput &in, Point p)
     return io::fmt("focus at (%g, %g) m", p.x_m, p.y_m);
 }
 
-}  // namespace
+} // namespace
 
 namespace {
 
 // Per emitter, the pulse responses r and the impulse responses h at every
 // candidate site: one reciprocity simulation each, in parallel.
 struct EmitterResponses {
-    std::vector<std::vector<std::vector<float>>> pulse, impulse;  // [emitter][site][n]
+    std::vector<std::vector<std::vector<float>>> pulse, impulse; // [emitter][site][n]
 };
 
 EmitterResponses simulate_emitters(const CalibrationInput &in, const std::vector<Point> &emitters,
@@ -63,7 +63,8 @@ EmitterResponses simulate_emitters(const CalibrationInput &in, const std::vector
             engine::Simulation sim(in.plate, single_core_options(in));
             const double k = sim.time_step_s();
             const std::size_t steps = sim.steps_for(in.calibration.window_s);
-            const SiteRecording rec_sites = record_sites(sim, emitters[e], sites, steps, site_recording_options(k, rate_d));
+            const SiteRecording rec_sites =
+                record_sites(sim, emitters[e], sites, steps, site_recording_options(k, rate_d));
             const std::vector<std::vector<double>> resampled = site_responses_at(rec_sites, k, steps, rate_d);
             std::vector<std::vector<float>> rec(sites.size()), imp(sites.size());
             for (size_t i = 0; i < sites.size(); i++) {
@@ -71,7 +72,7 @@ EmitterResponses simulate_emitters(const CalibrationInput &in, const std::vector
                 require_finite(h, i);
                 imp[i].assign(h.begin(), h.end());
                 rec[i].assign(h.size(), 0.0f);
-                for (size_t n = 0; n < h.size(); n++) {  // r = p * h, causal, truncated to the window
+                for (size_t n = 0; n < h.size(); n++) { // r = p * h, causal, truncated to the window
                     double acc = 0;
                     for (size_t m = 0; m < pulse_d.size() && m <= n; m++)
                         acc += pulse_d[m] * h[n - m];
@@ -96,15 +97,15 @@ EmitterResponses simulate_emitters(const CalibrationInput &in, const std::vector
     return out;
 }
 
-}  // namespace
+} // namespace
 
 struct PlacementSearch::State {
     EmitterResponses responses;
-    std::vector<Point> emitters;  // the foci of the subset, then the probe points
+    std::vector<Point> emitters; // the foci of the subset, then the probe points
     std::size_t foci = 0;
     std::size_t keep = 0, half_window = 0;
     std::unique_ptr<ContrastModel> model;
-    std::size_t first_rows = 0;  // the plan's emitters: the rows of the proxy the verdict is compared with
+    std::size_t first_rows = 0; // the plan's emitters: the rows of the proxy the verdict is compared with
     SearchOptions options;
 };
 
@@ -126,7 +127,7 @@ PlacementSearch::PlacementSearch(const CalibrationInput &in, const CalibrationPl
     // 1. One simulation per focus (and probe point): the pulse emitted there,
     //    recorded at every candidate site at once (reciprocity).
     st.emitters = plan.emitters;
-    st.foci = plan.foci;  // the emitters that are foci (of the placement subset)
+    st.foci = plan.foci; // the emitters that are foci (of the placement subset)
     for (size_t p = 0; p < plan.probes(); p++)
         pl.probe_rows.push_back(st.foci + p);
 
@@ -153,8 +154,8 @@ PlacementSearch::PlacementSearch(const CalibrationInput &in, const CalibrationPl
     }
     st.first_rows = st.emitters.size();
     if (st.emitters.size() >= 2)
-        st.model = std::make_unique<ContrastModel>(st.responses.pulse, st.responses.impulse, st.foci, st.keep,
-                                                   st.half_window);
+        st.model =
+            std::make_unique<ContrastModel>(st.responses.pulse, st.responses.impulse, st.foci, st.keep, st.half_window);
     SearchOptions &so = st.options;
     so.count = in.exciters.count;
     so.min_spacing_m = in.exciters.min_spacing_m;
@@ -175,9 +176,8 @@ PlacementSearch::PlacementSearch(const CalibrationInput &in, const CalibrationPl
         } else {
             so.temperature_start = 0.05;
             so.temperature_end = 1e-4;
-            r = search_placement(pl.sites, so, [&](const std::vector<size_t> &c) {
-                return distance_variety(points(c), variety_tol);
-            });
+            r = search_placement(
+                pl.sites, so, [&](const std::vector<size_t> &c) { return distance_variety(points(c), variety_tol); });
         }
         pl.chosen = r.chosen;
         pl.evaluations = r.evaluations;
@@ -247,4 +247,4 @@ std::vector<size_t> PlacementSearch::refine(const std::vector<Point> &probes, co
     return chosen;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -18,7 +18,7 @@ namespace calib::pipeline {
 // over them (placement/placement.h), to which probe points can be added (one
 // reciprocity simulation each) before searching again.
 class PlacementSearch {
-public:
+  public:
     // Simulates the plan's emitters and searches: fills res.placement,
     // res.exciters, res.search_rate_hz and the simulation and search times.
     PlacementSearch(const CalibrationInput &in, const CalibrationPlan &plan, const ProgressFn &progress,
@@ -41,7 +41,7 @@ public:
     // (the plan's emitters only), the proxy the verdict is compared with.
     double proxy_db(const std::vector<std::size_t> &chosen) const;
 
-private:
+  private:
     struct State;
     const CalibrationInput &in_;
     std::vector<Point> sites_;
@@ -50,4 +50,4 @@ private:
     std::unique_ptr<State> state_;
 };
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -28,12 +28,12 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 // the peak it was meant for (on Fig. 7, a quarter wavelength left the search
 // at 5.6 dB with ghosts between the probes; an eighth reaches 6.3).
 constexpr double ghost_fraction = 0.8;
-constexpr double probe_spacing = 0.25;  // of the judged radius (lambda/2)
+constexpr double probe_spacing = 0.25; // of the judged radius (lambda/2)
 
 // Per candidate site, its exciter's responses (one channel block of H),
 // simulated the first time a placement uses the site.
 class TransferCache {
-public:
+  public:
     TransferCache(const CalibrationInput &in, const PlacementSearch &search) : in_(in), search_(search)
     {
         engine::Simulation probe(in.plate, single_core_options(in));
@@ -75,7 +75,7 @@ public:
     }
     std::size_t simulations() const { return simulations_; }
 
-private:
+  private:
     const CalibrationInput &in_;
     const PlacementSearch &search_;
     TransferOptions options_;
@@ -95,7 +95,7 @@ struct Trial {
     TransferMatrix H;
 };
 
-}  // namespace
+} // namespace
 
 bool judged_by_verdict(const CalibrationInput &in, const PlacementSearch &search)
 {
@@ -242,4 +242,4 @@ std::vector<Point> placed_exciters(const CalibrationInput &in, const ProgressFn 
     return res.exciters;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

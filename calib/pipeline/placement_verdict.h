@@ -66,4 +66,4 @@ TransferMatrix search_by_verdict(const CalibrationInput &in, PlacementSearch &se
 // it applies, the search by the verdict), without the table's later stages.
 std::vector<Point> placed_exciters(const CalibrationInput &in, const ProgressFn &progress = {});
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -41,10 +41,10 @@ std::vector<Point> probe_points(const CalibrationInput &in, double lambda_half)
 
 std::size_t steps_for(double duration_s, double k)
 {
-    return static_cast<std::size_t>(std::ceil(duration_s / k - 1e-9));  // as engine::Simulation::steps_for
+    return static_cast<std::size_t>(std::ceil(duration_s / k - 1e-9)); // as engine::Simulation::steps_for
 }
 
-}  // namespace
+} // namespace
 
 double lattice_points(const Band &band, double spacing_m)
 {
@@ -74,7 +74,7 @@ CalibrationPlan plan(const CalibrationInput &in)
         p.sites = candidate_sites(p.band, p.site_spacing_m);
     }
     p.search_rate_hz = search_rate(in.pulse);
-    {  // The placement search weighs a bounded subset of the foci (placement/focus_subset.h).
+    { // The placement search weighs a bounded subset of the foci (placement/focus_subset.h).
         std::vector<Point> at;
         for (const FocusPoint &f : in.foci.points)
             at.push_back(f.at);
@@ -95,15 +95,14 @@ CalibrationPlan plan(const CalibrationInput &in)
     }
 
     p.nodes = in.plate->grid().node_count();
-    p.time_step_s = in.simulation.time_step_s > 0 ? in.simulation.time_step_s
-                                                   : in.simulation.courant * in.plate->max_time_step();
+    p.time_step_s =
+        in.simulation.time_step_s > 0 ? in.simulation.time_step_s : in.simulation.courant * in.plate->max_time_step();
     p.window_steps = steps_for(in.calibration.window_s, p.time_step_s);
     const SiteRecordingOptions sro = site_recording_options(p.time_step_s, p.search_rate_hz);
     p.site_decimation = sro.decimation;
     p.site_steps = p.window_steps + site_recording_delay_steps(p.time_step_s, sro);
     // The drive is the kept part of the window (design/time_reversal.cpp), then the tail.
-    p.drive_steps = steps_for(kept_window_s(in) + in.calibration.verify_tail_s,
-                              p.time_step_s);
+    p.drive_steps = steps_for(kept_window_s(in) + in.calibration.verify_tail_s, p.time_step_s);
     p.transfer = transfer_holds(in);
     if (!p.transfer)
         p.verification = {{true, false}, {false, true}};
@@ -115,4 +114,4 @@ CalibrationPlan plan(const CalibrationInput &in)
     return p;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -38,8 +38,8 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
         ids.push_back(in.foci.points[f].id);
         fxy.insert(fxy.end(), {in.foci.points[f].at.x_m, in.foci.points[f].at.y_m});
         scale.push_back(m.peak_m);
-        lead.push_back(m.lead_time_s);  // the same playback as scale_m: the stored samples at gain 1
-        ranges.push_back(m.gain_range(in.calibration.threshold_m));  // the same, relative to gain 1
+        lead.push_back(m.lead_time_s); // the same playback as scale_m: the stored samples at gain 1
+        ranges.push_back(m.gain_range(in.calibration.threshold_m)); // the same, relative to gain 1
         whole_area &= m.whole_area;
         std::copy(r.signals[f].samples.begin(), r.signals[f].samples.end(), samples.begin() + f * frames * C);
     }
@@ -50,7 +50,7 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
     std::string name = in.scene_name.substr(0, HAPTIC_TABLE_SCENE_NAME_LEN);
     while (!name.empty() && name.size() < in.scene_name.size() &&
            (static_cast<unsigned char>(in.scene_name[name.size()]) & 0xC0) == 0x80)
-        name.pop_back();  // never cut a UTF-8 sequence: the reader refuses invalid UTF-8
+        name.pop_back(); // never cut a UTF-8 sequence: the reader refuses invalid UTF-8
     haptic_table_spec spec{};
     spec.sample_rate_hz = static_cast<uint32_t>(std::lround(in.calibration.output_rate_hz));
     spec.channel_count = static_cast<uint16_t>(C);
@@ -98,4 +98,4 @@ void write_table(const std::string &path, const CalibrationInput &in, const Cali
         throw std::runtime_error(path + ": " + err.message);
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

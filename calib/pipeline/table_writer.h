@@ -11,4 +11,4 @@ namespace calib::pipeline {
 // Writes the table atomically with common/ (scale_m from the verification).
 void write_table(const std::string &path, const CalibrationInput &in, const CalibrationResult &result);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -61,7 +61,7 @@ void insert_safe_range(toml::table &t, const haptic_gain_range &r)
     t.insert("safe_range_db", std::move(a));
 }
 
-}  // namespace
+} // namespace
 
 void write_metrics_json(const std::string &dir, const ReportContext &c)
 {
@@ -76,7 +76,7 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
                       {"x_m", m.at.x_m},
                       {"y_m", m.at.y_m},
                       {"peak_m", m.peak_m},
-                      {"peak_time_s", m.lead_time_s},  // the lead time by its first name, kept for readers
+                      {"peak_time_s", m.lead_time_s}, // the lead time by its first name, kept for readers
                       {"lead_time_s", m.lead_time_s},
                       {"lambda_half_m", m.lambda_half_m},
                       {"crosses_threshold", m.crosses_threshold}};
@@ -126,11 +126,12 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
         // The verdict (data/verdict.h FocusMetrics::passes): what the exit status says.
         const pipeline::VerdictSummary vs = pipeline::summarize_verdict(c.verification->foci);
         if (vs.total > 0)
-            root.insert("verdict", toml::table{{"scope", c.verification->foci[vs.worst].verdict_scope()},
-                                               {"foci_passing", static_cast<int64_t>(vs.passing)},
-                                               {"foci", static_cast<int64_t>(vs.total)},
-                                               {"all_pass", vs.all_pass()},
-                                               {"worst_focus_id", static_cast<int64_t>(c.verification->foci[vs.worst].id)}});
+            root.insert("verdict",
+                        toml::table{{"scope", c.verification->foci[vs.worst].verdict_scope()},
+                                    {"foci_passing", static_cast<int64_t>(vs.passing)},
+                                    {"foci", static_cast<int64_t>(vs.total)},
+                                    {"all_pass", vs.all_pass()},
+                                    {"worst_focus_id", static_cast<int64_t>(c.verification->foci[vs.worst].id)}});
         root.insert("all_others_below_threshold", all_below);
         root.insert("min_other_foci_contrast_db", min_contrast);
         if (std::isfinite(min_whole)) {
@@ -141,17 +142,16 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
     add_drive_metrics(root, *root["foci"].as_array(), c);
     if (c.result) {
         const pipeline::PlacementReport &p = c.result->placement;
-        root.insert("placement",
-                    toml::table{{"chosen_predicted_contrast_db", p.chosen_contrast_db},
-                                {"regular_predicted_contrast_db", p.regular_contrast_db},
-                                {"chosen_distance_variety", p.chosen_variety},
-                                {"regular_distance_variety", p.regular_variety},
-                                {"candidate_sites", static_cast<int64_t>(p.sites.size())},
-                                {"evaluations", static_cast<int64_t>(p.evaluations)},
-                                {"simulations", static_cast<int64_t>(p.simulations)},
-                                {"subset_foci", static_cast<int64_t>(p.focus_subset.size())},
-                                {"subset_cover_m", p.subset_cover_m}});
-        if (!p.judged.empty()) {  // the search by the verdict (pipeline/placement_verdict.h)
+        root.insert("placement", toml::table{{"chosen_predicted_contrast_db", p.chosen_contrast_db},
+                                             {"regular_predicted_contrast_db", p.regular_contrast_db},
+                                             {"chosen_distance_variety", p.chosen_variety},
+                                             {"regular_distance_variety", p.regular_variety},
+                                             {"candidate_sites", static_cast<int64_t>(p.sites.size())},
+                                             {"evaluations", static_cast<int64_t>(p.evaluations)},
+                                             {"simulations", static_cast<int64_t>(p.simulations)},
+                                             {"subset_foci", static_cast<int64_t>(p.focus_subset.size())},
+                                             {"subset_cover_m", p.subset_cover_m}});
+        if (!p.judged.empty()) { // the search by the verdict (pipeline/placement_verdict.h)
             toml::array judged;
             for (const pipeline::PlacementReport::Judged &j : p.judged) {
                 toml::array sites;
@@ -185,7 +185,7 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
     }
     if (c.modes)
         root.insert("modes", modes_json(*c.modes));
-    if (c.result && c.result->tolerance)  // the worst case over the scene's [tolerance]
+    if (c.result && c.result->tolerance) // the worst case over the scene's [tolerance]
         root.insert("tolerance", tolerance_json(*c.result->tolerance));
     root.insert("peak_rss_mb", c.peak_rss_mb);
     std::ostringstream os;
@@ -200,11 +200,20 @@ std::string esc(const std::string &s)
     std::string o;
     for (char ch : s) {
         switch (ch) {
-        case '<': o += "&lt;"; break;
-        case '>': o += "&gt;"; break;
-        case '&': o += "&amp;"; break;
-        case '"': o += "&quot;"; break;
-        default: o += ch;
+        case '<':
+            o += "&lt;";
+            break;
+        case '>':
+            o += "&gt;";
+            break;
+        case '&':
+            o += "&amp;";
+            break;
+        case '"':
+            o += "&quot;";
+            break;
+        default:
+            o += ch;
         }
     }
     return o;
@@ -240,7 +249,7 @@ std::string layout_svg(const ReportContext &c)
         }
     }
     const double spot = c.input->foci.points.empty() ? 0 : c.verification->foci[0].lambda_half_m / 2;
-    const bool dense = !few_foci(c);  // a dense grid: dots, the placement subset ringed, no labels
+    const bool dense = !few_foci(c); // a dense grid: dots, the placement subset ringed, no labels
     for (const pipeline::FocusPoint &f : c.input->foci.points) {
         if (!dense) {
             s << "<circle cx='" << v.X(f.at.x_m) << "' cy='" << v.Y(f.at.y_m) << "' r='" << spot * v.scale
@@ -299,7 +308,7 @@ std::string traces_svg(const ReportContext &c, size_t f)
     const std::vector<std::vector<double>> &tr = v.traces[f];
     const double t_end = static_cast<double>(tr[0].size()) / v.trace_rate_hz * 1e3;
     const bool many = !few_foci(c);
-    if (c.mode == "table" && many) {  // a dense grid: the other foci as one curve, their largest |w|
+    if (c.mode == "table" && many) { // a dense grid: the other foci as one curve, their largest |w|
         std::vector<double> other(tr[f].size(), 0.0);
         size_t others = 0;
         for (size_t g = 0; g < tr.size(); g++) {
@@ -324,15 +333,16 @@ std::string traces_svg(const ReportContext &c, size_t f)
             s.color = g == f ? Color{214, 39, 40} : Color{150, 150, 160};
             if (g == f)
                 s.width_px = 1.8;
-        } else if (!many || v.foci[g].crosses_threshold) {  // a dense grid: only the foci that cross are named
+        } else if (!many || v.foci[g].crosses_threshold) { // a dense grid: only the foci that cross are named
             s.label = "focus " + std::to_string(v.foci[g].id);
         } else {
             s.color = Color{150, 150, 160};
         }
         p.add(std::move(s));
     }
-    if (c.mode == "table" && !many)  // draw the driven focus on top
-        std::rotate(p.series.begin() + static_cast<long>(f), p.series.begin() + static_cast<long>(f) + 1, p.series.end());
+    if (c.mode == "table" && !many) // draw the driven focus on top
+        std::rotate(p.series.begin() + static_cast<long>(f), p.series.begin() + static_cast<long>(f) + 1,
+                    p.series.end());
     p.add(Series("threshold", {0, t_end}, {thr, thr}, LineStyle::dashed, Color{0, 0, 0}));
     p.add(Series("", {0, t_end}, {-thr, -thr}, LineStyle::dashed, Color{0, 0, 0}));
     return render_svg(p);
@@ -361,7 +371,7 @@ std::string dispersion_svg(const ReportContext &c)
     return render_svg(p);
 }
 
-}  // namespace
+} // namespace
 
 void write_html_report(const std::string &dir, const ReportContext &c)
 {
@@ -379,20 +389,20 @@ void write_html_report(const std::string &dir, const ReportContext &c)
          "th{background:#f4f4f4}.ok{color:#17803d}.bad{color:#c0262d;font-weight:bold}"
          ".grid{display:flex;flex-wrap:wrap;gap:12px}.cell{border:1px solid #ddd;padding:6px}"
          "figcaption{font-size:0.9em;color:#555}</style></head><body>";
-    h << "<h1>Calibration report: " << esc(in.scene_name) << "</h1><p>Scene <code>" << esc(c.scene_path)
-      << "</code> (" << esc(in.scene_hash) << "), table <code>" << esc(c.table_path) << "</code>, " << date
-      << ". Plate " << num(in.plate->params().size_x_m * 1e3) << " x " << num(in.plate->params().size_y_m * 1e3)
-      << " x " << num(in.plate->params().thickness_m * 1e3, 2) << " mm " << esc(in.plate->params().material.name)
-      << ", grid " << in.plate->grid().nx << " x " << in.plate->grid().ny << " cells of "
-      << num(in.plate->grid().h * 1e3) << " mm. Exciter force at full scale " << num(in.exciters.force_full_scale_n)
-      << " N, threshold " << num(in.calibration.threshold_m * 1e6) << " um.";
+    h << "<h1>Calibration report: " << esc(in.scene_name) << "</h1><p>Scene <code>" << esc(c.scene_path) << "</code> ("
+      << esc(in.scene_hash) << "), table <code>" << esc(c.table_path) << "</code>, " << date << ". Plate "
+      << num(in.plate->params().size_x_m * 1e3) << " x " << num(in.plate->params().size_y_m * 1e3) << " x "
+      << num(in.plate->params().thickness_m * 1e3, 2) << " mm " << esc(in.plate->params().material.name) << ", grid "
+      << in.plate->grid().nx << " x " << in.plate->grid().ny << " cells of " << num(in.plate->grid().h * 1e3)
+      << " mm. Exciter force at full scale " << num(in.exciters.force_full_scale_n) << " N, threshold "
+      << num(in.calibration.threshold_m * 1e6) << " um.";
     if (c.result)
         h << " Run time " << num(c.total_s, 3) << " s (simulation " << num(c.result->times.simulation_s, 2)
           << " s, search " << num(c.result->times.search_s, 2) << " s, signals " << num(c.result->times.signals_s, 2)
           << " s, verification " << num(c.result->times.verification_s, 2) << " s), peak memory "
           << num(c.peak_rss_mb, 3) << " MB.";
     h << "</p>";
-    if (c.mode == "table" && !v.foci.empty()) {  // the verdict first: what the exit status says
+    if (c.mode == "table" && !v.foci.empty()) { // the verdict first: what the exit status says
         const pipeline::VerdictSummary vs = pipeline::summarize_verdict(v.foci);
         h << "<p class='" << (vs.all_pass() ? "ok" : "bad") << "'>Verdict (" << v.foci[vs.worst].verdict_scope()
           << ", all times): " << vs.passing << " of " << vs.total << " foci pass: each crosses the threshold and "
@@ -409,16 +419,18 @@ void write_html_report(const std::string &dir, const ReportContext &c)
         h << "<h2>Placement</h2><table><tr><th>pattern</th><th>predicted worst-case contrast (dB)</th>"
              "<th>distance variety (seed criterion)</th></tr><tr><td style='text-align:left'>regular symmetric</td><td>"
           << (p.regular.empty() ? "-" : num(p.regular_contrast_db)) << "</td><td>"
-          << (p.regular.empty() ? "-" : num(p.regular_variety)) << "</td></tr><tr><td style='text-align:left'>chosen</td><td>"
-          << num(p.chosen_contrast_db) << "</td><td>" << num(p.chosen_variety) << "</td></tr></table><p>"
-          << p.sites.size() << " candidate sites, " << p.evaluations << " placements evaluated, "
-          << p.simulations << " simulations: "
+          << (p.regular.empty() ? "-" : num(p.regular_variety))
+          << "</td></tr><tr><td style='text-align:left'>chosen</td><td>" << num(p.chosen_contrast_db) << "</td><td>"
+          << num(p.chosen_variety) << "</td></tr></table><p>" << p.sites.size() << " candidate sites, " << p.evaluations
+          << " placements evaluated, " << p.simulations << " simulations: "
           << (p.focus_subset.size() == v.foci.size()
                   ? "every focus weighed"
                   : std::to_string(p.focus_subset.size()) + " of the " + std::to_string(v.foci.size()) +
                         " foci weighed (farthest-point subset, ringed in the layout; every focus within " +
                         num(p.subset_cover_m * 1e3) + " mm of one)")
-          << (p.probe_rows.empty() ? "" : ", contrast also checked at " + std::to_string(p.probe_rows.size()) + " probe points")
+          << (p.probe_rows.empty()
+                  ? ""
+                  : ", contrast also checked at " + std::to_string(p.probe_rows.size()) + " probe points")
           << ".</p>";
     }
     h << "<h2>Metrics</h2><table><tr><th>focus</th><th>x (mm)</th><th>y (mm)</th><th>peak (um)</th>";
@@ -431,7 +443,9 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     else
         h << "<th>peak time (ms)</th><th>crosses threshold</th>";
     h << "</tr>";
-    auto yes = [](bool b) { return b ? std::string("<td class='ok'>yes</td>") : std::string("<td class='bad'>no</td>"); };
+    auto yes = [](bool b) {
+        return b ? std::string("<td class='ok'>yes</td>") : std::string("<td class='bad'>no</td>");
+    };
     for (const FocusMetrics &m : v.foci) {
         h << "<tr><td>" << m.id << "</td><td>" << num(m.at.x_m * 1e3) << "</td><td>" << num(m.at.y_m * 1e3)
           << "</td><td>" << num(m.peak_m * 1e6) << "</td>";
@@ -440,12 +454,13 @@ void write_html_report(const std::string &dir, const ReportContext &c)
               << num(m.spot_diameter_m * 1e3) << "</td><td>" << num(m.lambda_half_m * 1e3) << "</td><td>"
               << num(m.field_contrast_db) << "</td><td>" << (m.whole_area ? num(m.whole_area_contrast_db) : "-")
               << "</td><td>" << num(m.lead_time_s * 1e3) << "</td><td>"
-              << (m.whole_area ? num(m.perceived_offset_distance_m * 1e3) : "-") << "</td>"
-              << yes(m.crosses_threshold) << yes(m.others_below_threshold)
+              << (m.whole_area ? num(m.perceived_offset_distance_m * 1e3) : "-") << "</td>" << yes(m.crosses_threshold)
+              << yes(m.others_below_threshold)
               << (m.whole_area ? yes(m.whole_area_below_threshold) : std::string("<td>-</td>")) << "<td>"
               << pipeline::safe_range_text(m.gain_range(c.input->calibration.threshold_m)) << "</td>"
               << (m.passes() ? std::string("<td class='ok'>pass</td>")
-                             : "<td class='bad'>fails: " + canvas::xml_escape(m.failure(c.input->calibration.threshold_m)) + "</td>");
+                             : "<td class='bad'>fails: " +
+                                   canvas::xml_escape(m.failure(c.input->calibration.threshold_m)) + "</td>");
         else
             h << "<td>" << num(m.lead_time_s * 1e3) << "</td>" << yes(m.crosses_threshold);
         h << "</tr>";
@@ -476,4 +491,4 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     io::write_file_atomic(dir + "/index.html", h.str());
 }
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -36,7 +36,7 @@ void check_size(int w, int h)
 
 // Text drawn on an SVG canvas, kept for <text> elements.
 struct SvgText {
-    double x, y;  // anchor point on the baseline, device units
+    double x, y; // anchor point on the baseline, device units
     std::string text;
     double size_px;
     Anchor anchor;
@@ -71,7 +71,8 @@ std::string svg_element(const SvgText &t)
     if (!t.halo && t.a < 1)
         e += " fill-opacity=\"" + num(t.a) + "\"";
     if (t.halo)
-        e += " stroke=\"#000000\" stroke-opacity=\"0.85\" stroke-width=\"3\" stroke-linejoin=\"round\" paint-order=\"stroke\"";
+        e += " stroke=\"#000000\" stroke-opacity=\"0.85\" stroke-width=\"3\" stroke-linejoin=\"round\" "
+             "paint-order=\"stroke\"";
     if (t.vertical)
         e += " transform=\"rotate(-90 " + num(t.x) + " " + num(t.y) + ")\"";
     return e + ">" + xml_escape(t.text) + "</text>\n";
@@ -115,7 +116,7 @@ void replace_all(std::string &s, const std::string &from, const std::string &to)
         s.replace(at, from.size(), to);
 }
 
-}  // namespace
+} // namespace
 
 Image paint_image(int w, int h, const DrawFn &draw)
 {
@@ -184,7 +185,7 @@ std::string valid_utf8(std::string_view s)
         bool ok = n > 0 && i + n <= s.size();
         for (std::size_t k = 1; ok && k < n; ++k)
             ok = (static_cast<unsigned char>(s[i + k]) >> 6) == 0x2;
-        if (ok && n > 1) {  // no overlong forms, surrogates or code points past U+10FFFF
+        if (ok && n > 1) { // no overlong forms, surrogates or code points past U+10FFFF
             std::uint32_t cp = b & (0x7F >> n);
             for (std::size_t k = 1; k < n; ++k)
                 cp = (cp << 6) | (static_cast<unsigned char>(s[i + k]) & 0x3F);
@@ -207,12 +208,23 @@ std::string xml_escape(std::string_view s)
     std::string o;
     for (char ch : valid_utf8(s)) {
         switch (ch) {
-        case '&': o += "&amp;"; break;
-        case '<': o += "&lt;"; break;
-        case '>': o += "&gt;"; break;
-        case '"': o += "&quot;"; break;
-        case '\'': o += "&apos;"; break;
-        default: o += ch;
+        case '&':
+            o += "&amp;";
+            break;
+        case '<':
+            o += "&lt;";
+            break;
+        case '>':
+            o += "&gt;";
+            break;
+        case '"':
+            o += "&quot;";
+            break;
+        case '\'':
+            o += "&apos;";
+            break;
+        default:
+            o += ch;
         }
     }
     return o;
@@ -261,13 +273,13 @@ bool to_svg(cairo_t *cr, double x, double y, const std::string &t, double size_p
     double bx = vertical ? x + lift : x, by = vertical ? y : y + lift;
     cairo_user_to_device(cr, &bx, &by);
     double r = 0, g = 0, b = 0, alpha = 1;
-    cairo_pattern_get_rgba(cairo_get_source(cr), &r, &g, &b, &alpha);  // leaves black for a non-solid source
+    cairo_pattern_get_rgba(cairo_get_source(cr), &r, &g, &b, &alpha); // leaves black for a non-solid source
     cairo_restore(cr);
     texts->push_back({bx, by, t, size_px, a, vertical, halo, r, g, b, alpha});
     return true;
 }
 
-}  // namespace
+} // namespace
 
 void text(cairo_t *cr, double x, double y, std::string_view s, double size_px, Anchor a, bool vertical)
 {
@@ -297,4 +309,4 @@ void text_halo(cairo_t *cr, double x, double y, std::string_view s, double size_
     cairo_restore(cr);
 }
 
-}  // namespace calib::report::canvas
+} // namespace calib::report::canvas

@@ -42,4 +42,4 @@ double text_width(cairo_t *cr, std::string_view s, double size_px);
 std::string valid_utf8(std::string_view s);
 std::string xml_escape(std::string_view s);
 
-}  // namespace calib::report::canvas
+} // namespace calib::report::canvas

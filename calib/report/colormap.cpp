@@ -12,6 +12,8 @@ namespace {
 // the default colour map of matplotlib since 2.0: the 256 sRGB entries of
 // `_viridis_data` as published in the mpl-colormaps repository
 // (github.com/BIDS/colormap, colormaps.py), released under CC0 1.0.
+// Four entries a line, as published: kept out of clang-format's reflow.
+// clang-format off
 const double viridis_table[256][3] = {
     {0.267004, 0.004874, 0.329415}, {0.268510, 0.009605, 0.335427}, {0.269944, 0.014625, 0.341379}, {0.271305, 0.019942, 0.347269},
     {0.272594, 0.025563, 0.353093}, {0.273809, 0.031497, 0.358853}, {0.274952, 0.037752, 0.364543}, {0.276022, 0.044167, 0.370164},
@@ -78,12 +80,13 @@ const double viridis_table[256][3] = {
     {0.926106, 0.897330, 0.104071}, {0.935904, 0.898570, 0.108131}, {0.945636, 0.899815, 0.112838}, {0.955300, 0.901065, 0.118128},
     {0.964894, 0.902323, 0.123941}, {0.974417, 0.903590, 0.130215}, {0.983868, 0.904867, 0.136897}, {0.993248, 0.906157, 0.143936},
 };
+// clang-format on
 
-}  // namespace
+} // namespace
 
 Color viridis_entry(int i)
 {
-    static const std::array<Color, 256> bytes = [] {  // 8-bit sRGB, rounded as matplotlib's to_hex
+    static const std::array<Color, 256> bytes = [] { // 8-bit sRGB, rounded as matplotlib's to_hex
         std::array<Color, 256> out;
         auto byte = [](double v) { return static_cast<std::uint8_t>(std::lround(255.0 * v)); };
         for (std::size_t k = 0; k < out.size(); ++k)
@@ -100,4 +103,4 @@ Color viridis(double t)
     return viridis_entry(static_cast<int>(std::min(255.0, std::floor(t * 256.0))));
 }
 
-}  // namespace calib::report
+} // namespace calib::report

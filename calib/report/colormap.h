@@ -10,6 +10,6 @@ namespace calib::report {
 // deficiencies. t in [0, 1] (clamped; NaN gives entry 0); entry i of the
 // 256-entry table covers [i/256, (i+1)/256), as matplotlib looks it up.
 Color viridis(double t);
-Color viridis_entry(int i);  // i in 0..255 (clamped)
+Color viridis_entry(int i); // i in 0..255 (clamped)
 
-}  // namespace calib::report
+} // namespace calib::report

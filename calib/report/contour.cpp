@@ -52,4 +52,4 @@ std::vector<ContourSegment> contour_segments(const FieldMap &f, double level)
     return out;
 }
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -19,4 +19,4 @@ struct ContourSegment {
 // the same side of the level) is split by the mean of its four samples.
 std::vector<ContourSegment> contour_segments(const FieldMap &field, double level);
 
-}  // namespace calib::report
+} // namespace calib::report

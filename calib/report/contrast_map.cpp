@@ -42,4 +42,4 @@ FieldMap nearest_focus_map(const std::vector<pipeline::Point> &foci, const std::
     return m;
 }
 
-}  // namespace calib::report
+} // namespace calib::report

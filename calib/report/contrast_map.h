@@ -18,4 +18,4 @@ namespace calib::report {
 FieldMap nearest_focus_map(const std::vector<pipeline::Point> &foci, const std::vector<double> &values,
                            const pipeline::Rect &area, int samples = 240);
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -21,8 +21,8 @@ std::vector<pipeline::DriveFigures> drive_figures_of(const ReportContext &c)
         return out;
     const unsigned C = static_cast<unsigned>(c.exciters.size());
     for (std::size_t f = 0; f < c.signals->size(); f++)
-        out.push_back(pipeline::drive_figures(*c.input, (*c.signals)[f], C, c.signal_rate_hz,
-                                              c.verification->foci[f].peak_m));
+        out.push_back(
+            pipeline::drive_figures(*c.input, (*c.signals)[f], C, c.signal_rate_hz, c.verification->foci[f].peak_m));
     return out;
 }
 
@@ -48,8 +48,7 @@ std::string drive_design_html(const ReportContext &c)
     const bool inverse = in.calibration.method == pipeline::DriveMethod::inverse_filter;
     std::ostringstream h;
     h << "<h2>Drive design</h2><p>Method: <b>" << (inverse ? "inverse filter" : "time reversal") << "</b>, "
-      << "focal peak aimed at " << fmt("%.1f", pipeline::target_lead_time_s(in) * 1e3)
-      << " ms after playback starts";
+      << "focal peak aimed at " << fmt("%.1f", pipeline::target_lead_time_s(in) * 1e3) << " ms after playback starts";
     if (inverse)
         h << ", regularization " << fmt("%g", in.calibration.regularization)
           << " (Tikhonov weight relative to the largest eigenvalue of H<sup>T</sup>H; control points: the active "
@@ -71,4 +70,4 @@ std::string drive_design_html(const ReportContext &c)
     return h.str();
 }
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -23,4 +23,4 @@ void add_drive_metrics(toml::table &root, toml::array &foci, const ReportContext
 // A section of index.html.
 std::string drive_design_html(const ReportContext &c);
 
-}  // namespace calib::report
+} // namespace calib::report

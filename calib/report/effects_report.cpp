@@ -57,11 +57,13 @@ std::vector<EffectStatus> assess_effects(const EffectsSpec &spec, const PlatePar
             s.active = false;
             s.why = "asked, but NOT composed (the caller's simulation runs the Kirchhoff engine only): " + est;
         } else if (spec.thick_plate)
-            s.why = std::string(s.negligible ? "on (asked; negligible here)" : "on (asked)") +
-                    " (Mindlin engine in every simulation: calibration and verification); left out it would cost: " + est;
+            s.why =
+                std::string(s.negligible ? "on (asked; negligible here)" : "on (asked)") +
+                " (Mindlin engine in every simulation: calibration and verification); left out it would cost: " + est;
         else
-            s.why = std::string(s.negligible ? "off (negligible): " : "off (NOT negligible, set effects.thick_plate): ") +
-                    est;
+            s.why =
+                std::string(s.negligible ? "off (negligible): " : "off (NOT negligible, set effects.thick_plate): ") +
+                est;
         out.push_back(s);
     }
     // Finger: its mass against the plate mass under one wavelength squared at f_max.
@@ -74,12 +76,15 @@ std::vector<EffectStatus> assess_effects(const EffectsSpec &spec, const PlatePar
             s.estimated_error = ratio;
             s.negligible = ratio < negligible_relative;
             s.active = support.finger;
-            s.why = std::string(support.finger ? "on (asked; composed in the verification (playback) runs only, not in the calibration)"
-                                               : "asked, but NOT composed (no extension hook in this simulation)") +
+            s.why = std::string(
+                        support.finger
+                            ? "on (asked; composed in the verification (playback) runs only, not in the calibration)"
+                            : "asked, but NOT composed (no extension hook in this simulation)") +
                     fmt(" at (%.3g, %.3g) m: ", spec.finger->x_m, spec.finger->y_m) +
-                    fmt("finger mass / plate mass under lambda^2 at f_max = %.2g", ratio) + (s.negligible ? " (negligible)" : "");
+                    fmt("finger mass / plate mass under lambda^2 at f_max = %.2g", ratio) +
+                    (s.negligible ? " (negligible)" : "");
         } else {
-            const double typical = 0.005;  // a fingertip's effective mass, ~5 g
+            const double typical = 0.005; // a fingertip's effective mass, ~5 g
             s.estimated_error = typical / local;
             s.negligible = s.estimated_error < negligible_relative;
             s.why = fmt("off (no [effects.finger]): a 5 g fingertip would be %.2g of the plate mass under lambda^2 at "
@@ -99,8 +104,9 @@ std::vector<EffectStatus> assess_effects(const EffectsSpec &spec, const PlatePar
             s.why = fmt("on (asked): resonance %.4g Hz, Q %.3g", exciter_resonance_hz(e), exciter_q(e)) +
                     fmt(", |F / Bl i| = %.2f at %.4g Hz", lo, f_lo_hz) + fmt(", %.2f at %.4g Hz", hi, f_hi_hz) +
                     (e.precompensate ? "; drive signals pre-compensated" : "; no pre-compensation") +
-                    fmt("; plate loading left out: %.2g", std::max(exciter_plate_loading(e, mat.bending_stiffness(d), mat.density_kg_m3 * d, f_lo_hz),
-                                                                 exciter_plate_loading(e, mat.bending_stiffness(d), mat.density_kg_m3 * d, f_hi_hz)));
+                    fmt("; plate loading left out: %.2g",
+                        std::max(exciter_plate_loading(e, mat.bending_stiffness(d), mat.density_kg_m3 * d, f_lo_hz),
+                                 exciter_plate_loading(e, mat.bending_stiffness(d), mat.density_kg_m3 * d, f_hi_hz)));
         } else {
             s.why = "off (no [effects.exciter]): exciters are ideal force sources";
         }
@@ -117,4 +123,4 @@ std::vector<std::string> describe_effects(const std::vector<EffectStatus> &statu
     return out;
 }
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -13,11 +13,11 @@
 namespace calib::report {
 
 struct EffectStatus {
-    std::string name;         // "loss", "thick_plate", "finger", "exciter"
-    bool active = false;      // the simulation composes it
-    bool negligible = false;  // the estimate below is under the threshold
-    double estimated_error = 0;  // relative size of the effect (dimensionless; meaning in `why`)
-    std::string why;          // one line
+    std::string name;           // "loss", "thick_plate", "finger", "exciter"
+    bool active = false;        // the simulation composes it
+    bool negligible = false;    // the estimate below is under the threshold
+    double estimated_error = 0; // relative size of the effect (dimensionless; meaning in `why`)
+    std::string why;            // one line
 };
 
 // Thresholds: an effect whose estimate is below this relative size is "negligible".
@@ -46,4 +46,4 @@ std::vector<std::string> describe_effects(const std::vector<EffectStatus> &statu
 // the thick-plate correction costs).
 double kirchhoff_phase_error(const physics::Material &m, double thickness_m, double f_hz);
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -28,7 +28,8 @@ const Color black{0, 0, 0}, frame_grey{90, 90, 90};
 void check(const FieldMap &f, const FieldStyle &s)
 {
     auto fail = [&](const std::string &why) {
-        throw std::invalid_argument("field image" + (s.title.empty() ? std::string() : " '" + s.title + "'") + ": " + why);
+        throw std::invalid_argument("field image" + (s.title.empty() ? std::string() : " '" + s.title + "'") + ": " +
+                                    why);
     };
     if (f.nx <= 0 || f.ny <= 0)
         fail("the lattice has no samples (nx = " + std::to_string(f.nx) + ", ny = " + std::to_string(f.ny) + ")");
@@ -51,7 +52,8 @@ void check(const FieldMap &f, const FieldStyle &s)
         fail("the plate size must be finite and >= 0");
     if (s.active_area) {
         const auto &a = *s.active_area;
-        if (!std::all_of(a.begin(), a.end(), [](double v) { return std::isfinite(v); }) || !(a[2] > a[0]) || !(a[3] > a[1]))
+        if (!std::all_of(a.begin(), a.end(), [](double v) { return std::isfinite(v); }) || !(a[2] > a[0]) ||
+            !(a[3] > a[1]))
             fail("the active area must have x1 > x0 and y1 > y0");
     }
     for (const Marker &m : s.markers)
@@ -70,7 +72,8 @@ double sample(const FieldMap &f, double x_m, double y_m)
         return NAN;
     fi = std::clamp(fi, 0.0, f.nx - 1.0);
     fj = std::clamp(fj, 0.0, f.ny - 1.0);
-    const int i = std::min(static_cast<int>(fi), std::max(0, f.nx - 2)), j = std::min(static_cast<int>(fj), std::max(0, f.ny - 2));
+    const int i = std::min(static_cast<int>(fi), std::max(0, f.nx - 2)),
+              j = std::min(static_cast<int>(fj), std::max(0, f.ny - 2));
     const int i1 = std::min(i + 1, f.nx - 1), j1 = std::min(j + 1, f.ny - 1);
     const double u = fi - i, v = fj - j;
     auto at = [&](int a, int b) { return static_cast<double>(f.value[static_cast<std::size_t>(b) * f.nx + a]); };
@@ -125,7 +128,8 @@ std::vector<LegendItem> legend_items(const FieldMap &f, const FieldStyle &s, con
 {
     std::vector<LegendItem> items;
     if (s.threshold)
-        items.push_back({LegendItem::threshold, "threshold " + io::fmt("%.3g", *s.threshold * s.scale) + " " + s.unit, 0});
+        items.push_back(
+            {LegendItem::threshold, "threshold " + io::fmt("%.3g", *s.threshold * s.scale) + " " + s.unit, 0});
     if (has_no_data(f, l))
         items.push_back({LegendItem::no_data, "no data", 0});
     auto any = [&](Marker::Kind k) {
@@ -165,7 +169,7 @@ double value_max(const FieldMap &f)
     return m;
 }
 
-}  // namespace
+} // namespace
 
 FieldLayout field_layout(const FieldMap &f, const FieldStyle &s)
 {
@@ -178,7 +182,7 @@ FieldLayout field_layout(const FieldMap &f, const FieldStyle &s)
     l.vmin = s.vmin.value_or(0.0);
     const double top = value_max(f);
     l.vmax = s.vmax.value_or(std::isfinite(top) ? top : l.vmin);
-    if (!(l.vmax > l.vmin))  // a flat or empty field: one display unit of range
+    if (!(l.vmax > l.vmin)) // a flat or empty field: one display unit of range
         l.vmax = l.vmin + 1 / s.scale;
 
     double bar_label_w = measure(s.unit, label_font);
@@ -190,7 +194,7 @@ FieldLayout field_layout(const FieldMap &f, const FieldStyle &s)
     const double aspect = (l.y1_m - l.y0_m) / (l.x1_m - l.x0_m);
     l.field_w_px = std::max(16, s.width_px - left - right);
     l.field_h_px = std::max(16, static_cast<int>(std::lround(l.field_w_px * aspect)));
-    if (l.field_h_px > 2 * s.width_px) {  // a tall strip: keep the image no more than twice as tall as wide
+    if (l.field_h_px > 2 * s.width_px) { // a tall strip: keep the image no more than twice as tall as wide
         l.field_h_px = 2 * s.width_px;
         l.field_w_px = std::max(16, static_cast<int>(std::lround(l.field_h_px / aspect)));
     }
@@ -226,7 +230,7 @@ void paint_field(cairo_t *cr, const FieldMap &f, const FieldLayout &l)
         }
     }
     cairo_surface_mark_dirty(img.get());
-    cairo_set_source_surface(cr, img.get(), l.field_x_px, l.field_y_px);  // whole pixels: an exact copy
+    cairo_set_source_surface(cr, img.get(), l.field_x_px, l.field_y_px); // whole pixels: an exact copy
     cairo_paint(cr);
 }
 
@@ -242,7 +246,9 @@ void paint_bar(cairo_t *cr, const FieldLayout &l, const FieldStyle &s)
     cairo_rectangle(cr, l.bar_x_px - 0.5, l.bar_y_px - 0.5, l.bar_w_px + 1, l.bar_h_px + 1);
     cairo_stroke(cr);
     const Ticks t = bar_ticks(l, s);
-    auto Y = [&](double shown) { return l.bar_y_px + (1 - (shown / s.scale - l.vmin) / (l.vmax - l.vmin)) * l.bar_h_px; };
+    auto Y = [&](double shown) {
+        return l.bar_y_px + (1 - (shown / s.scale - l.vmin) / (l.vmax - l.vmin)) * l.bar_h_px;
+    };
     for (std::size_t i = 0; i < t.major.size(); ++i) {
         const double y = std::round(Y(t.major[i]) - 0.5) + 0.5, x = l.bar_x_px + l.bar_w_px;
         canvas::set_color(cr, frame_grey);
@@ -350,7 +356,7 @@ void paint_overlays(cairo_t *cr, const FieldMap &f, const FieldLayout &l, const 
         }
         halo_stroke(cr, 1.5);
     }
-    if (s.active_area) {  // on pixel centres: crisp 1 px dashes
+    if (s.active_area) { // on pixel centres: crisp 1 px dashes
         const auto &a = *s.active_area;
         auto mid = [](double v) { return std::floor(v) + 0.5; };
         const double x0 = mid(l.px_x(a[0])), x1 = mid(l.px_x(a[2])), y0 = mid(l.px_y(a[3])), y1 = mid(l.px_y(a[1]));
@@ -363,8 +369,12 @@ void paint_overlays(cairo_t *cr, const FieldMap &f, const FieldLayout &l, const 
     for (const Marker &m : s.markers) {
         const double x = l.px_x(m.x_m), y = l.px_y(m.y_m);
         switch (m.kind) {
-        case Marker::Kind::focus: focus_symbol(cr, x, y); break;
-        case Marker::Kind::exciter: exciter_symbol(cr, x, y); break;
+        case Marker::Kind::focus:
+            focus_symbol(cr, x, y);
+            break;
+        case Marker::Kind::exciter:
+            exciter_symbol(cr, x, y);
+            break;
         case Marker::Kind::point:
             cairo_move_to(cr, x - 4, y);
             cairo_line_to(cr, x + 4, y);
@@ -395,9 +405,11 @@ void paint_legend(cairo_t *cr, const FieldMap &f, const FieldLayout &l, const Fi
                 cairo_rectangle(cr, x + 5, y - 5, 10, 10);
                 cairo_fill(cr);
                 break;
-            case LegendItem::exciter: exciter_symbol(cr, x + 10, y); break;
+            case LegendItem::exciter:
+                exciter_symbol(cr, x + 10, y);
+                break;
             case LegendItem::focus:
-                cairo_set_source_rgb(cr, 0.6, 0.6, 0.6);  // the symbol is light: give it a ground
+                cairo_set_source_rgb(cr, 0.6, 0.6, 0.6); // the symbol is light: give it a ground
                 cairo_rectangle(cr, x, y - 9, 20, 18);
                 cairo_fill(cr);
                 focus_symbol(cr, x + 10, y);
@@ -411,7 +423,7 @@ void paint_legend(cairo_t *cr, const FieldMap &f, const FieldLayout &l, const Fi
     }
 }
 
-}  // namespace
+} // namespace
 
 Image render_field(const FieldMap &field, const FieldStyle &style)
 {
@@ -425,4 +437,4 @@ Image render_field(const FieldMap &field, const FieldStyle &style)
     });
 }
 
-}  // namespace calib::report
+} // namespace calib::report

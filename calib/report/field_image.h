@@ -20,11 +20,11 @@
 
 namespace calib::report {
 
-struct FieldMap {                 // samples of a scalar field on a regular lattice
-    int nx = 0, ny = 0;           // samples along x and y
-    double x0_m = 0, y0_m = 0;    // position of sample (0, 0)
-    double dx_m = 0, dy_m = 0;    // spacing
-    std::vector<float> value;     // row-major (j, i), j along y (y up on the image); NaN = no data
+struct FieldMap {              // samples of a scalar field on a regular lattice
+    int nx = 0, ny = 0;        // samples along x and y
+    double x0_m = 0, y0_m = 0; // position of sample (0, 0)
+    double dx_m = 0, dy_m = 0; // spacing
+    std::vector<float> value;  // row-major (j, i), j along y (y up on the image); NaN = no data
 };
 
 struct Marker {
@@ -35,29 +35,29 @@ struct Marker {
 
 struct FieldStyle {
     std::string title;
-    std::string unit = "um";      // unit shown on the colour bar
-    double scale = 1e6;           // value * scale is shown in `unit`
-    std::optional<double> vmin, vmax;       // in field units (m); unset: 0 .. max
-    std::optional<double> threshold;        // in field units; marked on the colour bar and drawn as a contour
+    std::string unit = "um";          // unit shown on the colour bar
+    double scale = 1e6;               // value * scale is shown in `unit`
+    std::optional<double> vmin, vmax; // in field units (m); unset: 0 .. max
+    std::optional<double> threshold;  // in field units; marked on the colour bar and drawn as a contour
     std::vector<Marker> markers;
-    double plate_x_m = 0, plate_y_m = 0;    // plate outline [0, plate_x_m] x [0, plate_y_m] (0 = the lattice's extent)
-    std::optional<std::array<double, 4>> active_area;  // x0, y0, x1, y1: outlined
+    double plate_x_m = 0, plate_y_m = 0; // plate outline [0, plate_x_m] x [0, plate_y_m] (0 = the lattice's extent)
+    std::optional<std::array<double, 4>> active_area; // x0, y0, x1, y1: outlined
     int width_px = 720;
 };
 
 // Colours a reader (and a test) can rely on.
-inline constexpr Color field_no_data_color{200, 200, 200};  // NaN samples, plate outside the lattice
-inline constexpr Color field_contour_color{255, 255, 255};  // the threshold contour (on a dark halo)
+inline constexpr Color field_no_data_color{200, 200, 200}; // NaN samples, plate outside the lattice
+inline constexpr Color field_contour_color{255, 255, 255}; // the threshold contour (on a dark halo)
 inline constexpr Color field_exciter_color{214, 39, 40};
 
 // Where render_field puts things: the field area in pixels and the map from
 // plate coordinates to pixel coordinates (x right, y down on the image).
 struct FieldLayout {
     int width_px = 0, height_px = 0;
-    int field_x_px = 0, field_y_px = 0, field_w_px = 0, field_h_px = 0;  // top-left corner and size
-    double x0_m = 0, y0_m = 0, x1_m = 0, y1_m = 0;                        // the extent shown
-    int bar_x_px = 0, bar_y_px = 0, bar_w_px = 0, bar_h_px = 0;          // the colour bar
-    double vmin = 0, vmax = 0;                                           // colour scale, field units
+    int field_x_px = 0, field_y_px = 0, field_w_px = 0, field_h_px = 0; // top-left corner and size
+    double x0_m = 0, y0_m = 0, x1_m = 0, y1_m = 0;                      // the extent shown
+    int bar_x_px = 0, bar_y_px = 0, bar_w_px = 0, bar_h_px = 0;         // the colour bar
+    double vmin = 0, vmax = 0;                                          // colour scale, field units
 
     double px_x(double x_m) const { return field_x_px + (x_m - x0_m) / (x1_m - x0_m) * field_w_px; }
     double px_y(double y_m) const { return field_y_px + (y1_m - y_m) / (y1_m - y0_m) * field_h_px; }
@@ -69,7 +69,7 @@ struct FieldLayout {
 // non-finite threshold or marker, a negative plate size, an empty active area
 // or a width outside 160..8000 px.
 FieldLayout field_layout(const FieldMap &field, const FieldStyle &style);
-Image render_field(const FieldMap &field, const FieldStyle &style);   // with colour bar and ticks in `unit`
+Image render_field(const FieldMap &field, const FieldStyle &style); // with colour bar and ticks in `unit`
 
 // PNG data URIs of several field images, rendered on all cores (OpenMP): one
 // style for all, or one per field. Throws as render_field, or
@@ -83,4 +83,4 @@ std::vector<std::string> render_field_uris(const std::vector<FieldMap> &fields, 
 std::string field_movie_html(const std::vector<FieldMap> &frames, const std::vector<double> &times_s,
                              const FieldStyle &style, const std::string &element_id);
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -20,9 +20,8 @@ bool valid_id(const std::string &id)
 {
     if (id.empty() || !std::isalpha(static_cast<unsigned char>(id[0])))
         return false;
-    return std::all_of(id.begin(), id.end(), [](char ch) {
-        return std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_';
-    });
+    return std::all_of(id.begin(), id.end(),
+                       [](char ch) { return std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_'; });
 }
 
 // Enough decimals in ms to tell neighbouring frames apart.
@@ -32,7 +31,8 @@ std::vector<std::string> time_labels(const std::vector<double> &t)
     for (std::size_t k = 1; k < t.size(); ++k)
         if (t[k] != t[k - 1])
             step = std::min(step, std::abs(t[k] - t[k - 1]));
-    const int decimals = std::isfinite(step) ? std::clamp(static_cast<int>(std::ceil(-std::log10(step * 1e3))), 0, 4) : 1;
+    const int decimals =
+        std::isfinite(step) ? std::clamp(static_cast<int>(std::ceil(-std::log10(step * 1e3))), 0, 4) : 1;
     std::vector<std::string> out;
     for (double v : t) {
         char buf[48];
@@ -42,7 +42,7 @@ std::vector<std::string> time_labels(const std::vector<double> &t)
     return out;
 }
 
-}  // namespace
+} // namespace
 
 std::vector<std::string> render_field_uris(const std::vector<FieldMap> &fields, const std::vector<FieldStyle> &styles)
 {
@@ -78,8 +78,10 @@ std::string field_movie_html(const std::vector<FieldMap> &frames, const std::vec
                                     "' must be a letter followed by letters, digits, '-' or '_'");
     for (std::size_t k = 0; k < frames.size(); ++k) {
         const FieldMap &a = frames[0], &b = frames[k];
-        if (b.nx != a.nx || b.ny != a.ny || b.x0_m != a.x0_m || b.y0_m != a.y0_m || b.dx_m != a.dx_m || b.dy_m != a.dy_m)
-            throw std::invalid_argument("field movie: frame " + std::to_string(k) + " is on another lattice than frame 0");
+        if (b.nx != a.nx || b.ny != a.ny || b.x0_m != a.x0_m || b.y0_m != a.y0_m || b.dx_m != a.dx_m ||
+            b.dy_m != a.dy_m)
+            throw std::invalid_argument("field movie: frame " + std::to_string(k) +
+                                        " is on another lattice than frame 0");
         if (!std::isfinite(times_s[k]))
             throw std::invalid_argument("field movie: time of frame " + std::to_string(k) + " is not finite");
     }
@@ -94,7 +96,7 @@ std::string field_movie_html(const std::vector<FieldMap> &frames, const std::vec
         if (std::isfinite(top) && top > shared.vmin.value_or(0.0))
             shared.vmax = top;
     }
-    field_layout(frames[0], shared);  // refuses a bad style or lattice before any work
+    field_layout(frames[0], shared); // refuses a bad style or lattice before any work
 
     const std::vector<std::string> labels = time_labels(times_s);
     const std::vector<std::string> uris = render_field_uris(frames, {shared});
@@ -109,7 +111,9 @@ std::string field_movie_html(const std::vector<FieldMap> &frames, const std::vec
          "</span></div>\n";
     // No '<', '>' or '&' in the script: the fragment stays well-formed XML too.
     h += "<script>(function () {\n"
-         "var root = document.getElementById('" + element_id + "');\n"
+         "var root = document.getElementById('" +
+         element_id +
+         "');\n"
          "var frames = root.querySelectorAll('img'), slider = root.querySelector('input');\n"
          "var button = root.querySelector('button'), label = root.querySelector('span'), timer = null;\n"
          "function show(k) {\n"
@@ -127,4 +131,4 @@ std::string field_movie_html(const std::vector<FieldMap> &frames, const std::vec
     return h;
 }
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -23,14 +23,15 @@ cairo_status_t append(void *closure, const unsigned char *data, unsigned int len
     return CAIRO_STATUS_SUCCESS;
 }
 
-}  // namespace
+} // namespace
 
 std::vector<std::uint8_t> encode_png(const Image &img)
 {
     if (img.width <= 0 || img.height <= 0 ||
         img.rgb.size() != static_cast<std::size_t>(img.width) * static_cast<std::size_t>(img.height) * 3)
         throw std::invalid_argument("PNG: image size does not match its pixel buffer");
-    std::unique_ptr<cairo_surface_t, SurfaceFree> s(cairo_image_surface_create(CAIRO_FORMAT_RGB24, img.width, img.height));
+    std::unique_ptr<cairo_surface_t, SurfaceFree> s(
+        cairo_image_surface_create(CAIRO_FORMAT_RGB24, img.width, img.height));
     if (cairo_surface_status(s.get()) != CAIRO_STATUS_SUCCESS)
         throw std::runtime_error(std::string("PNG: ") + cairo_status_to_string(cairo_surface_status(s.get())));
     cairo_surface_flush(s.get());
@@ -40,7 +41,7 @@ std::vector<std::uint8_t> encode_png(const Image &img)
         auto *row = reinterpret_cast<std::uint32_t *>(base + static_cast<std::ptrdiff_t>(y) * stride);
         for (int x = 0; x < img.width; ++x) {
             const Color c = img.at(x, y);
-            row[x] = (std::uint32_t(c.r) << 16) | (std::uint32_t(c.g) << 8) | c.b;  // RGB24: native-endian 0x00RRGGBB
+            row[x] = (std::uint32_t(c.r) << 16) | (std::uint32_t(c.g) << 8) | c.b; // RGB24: native-endian 0x00RRGGBB
         }
     }
     cairo_surface_mark_dirty(s.get());
@@ -69,4 +70,4 @@ std::string base64(const std::vector<std::uint8_t> &in)
 
 std::string png_data_uri(const Image &img) { return "data:image/png;base64," + base64(encode_png(img)); }
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -20,8 +20,8 @@ struct Image {
 
     Color at(int x, int y) const
     {
-        const std::uint8_t *p = &rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                                      static_cast<std::size_t>(x)) * 3];
+        const std::uint8_t *p =
+            &rgb[(static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 3];
         return {p[0], p[1], p[2]};
     }
 };
@@ -33,4 +33,4 @@ std::string base64(const std::vector<std::uint8_t> &bytes);
 // "data:image/png;base64,..." for an <img src>.
 std::string png_data_uri(const Image &img);
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -18,7 +18,7 @@ Image mode_shape_image(const std::vector<double> &field, int nodes_x, int nodes_
         for (int x = 0; x < img.width; ++x) {
             const int i = x / px, j = nodes_y - 1 - y / px;
             const double v = std::clamp(field[std::size_t(j) * std::size_t(nodes_x) + std::size_t(i)], -1.0, 1.0);
-            const double fade = 1 - std::abs(v);  // white at 0
+            const double fade = 1 - std::abs(v); // white at 0
             const Color full = v >= 0 ? Color{178, 24, 43} : Color{33, 102, 172};
             std::uint8_t *p = &img.rgb[(std::size_t(y) * std::size_t(img.width) + std::size_t(x)) * 3];
             p[0] = std::uint8_t(std::lround(full.r + fade * (255 - full.r)));
@@ -28,4 +28,4 @@ Image mode_shape_image(const std::vector<double> &field, int nodes_x, int nodes_
     return img;
 }
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -12,4 +12,4 @@ namespace calib::report {
 // each node a square of pixels so the image is about `target_px` across.
 Image mode_shape_image(const std::vector<double> &field, int nodes_x, int nodes_y, int target_px = 400);
 
-}  // namespace calib::report
+} // namespace calib::report

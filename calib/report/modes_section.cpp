@@ -22,7 +22,8 @@ std::string modes_html(const engine::PlateModes &m, const engine::PlateOperator 
          "<th>y symmetry</th></tr>";
     for (std::size_t i = 0; i < m.frequency_hz.size(); ++i)
         h << "<tr><td>" << i + 1 << "</td><td>" << io::fmt("%.2f", m.frequency_hz[i]) << "</td><td>"
-          << (m.decay_rate_1_s[i] > 0 ? io::fmt("%.3g", engine::t60_of_decay_rate_s(m.decay_rate_1_s[i])) : std::string("-"))
+          << (m.decay_rate_1_s[i] > 0 ? io::fmt("%.3g", engine::t60_of_decay_rate_s(m.decay_rate_1_s[i]))
+                                      : std::string("-"))
           << "</td><td>" << engine::parity_name(m.parity_x[i]) << "</td><td>" << engine::parity_name(m.parity_y[i])
           << "</td></tr>";
     h << "</table><div class='grid'>";
@@ -52,4 +53,4 @@ toml::array modes_json(const engine::PlateModes &m)
     return out;
 }
 
-}  // namespace calib::report
+} // namespace calib::report

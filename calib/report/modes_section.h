@@ -16,4 +16,4 @@ std::string modes_html(const engine::PlateModes &modes, const engine::PlateOpera
 // [{mode, frequency_hz, decay_rate_1_s, t60_s (absent without loss), x_symmetry, y_symmetry}, ...]
 toml::array modes_json(const engine::PlateModes &modes);
 
-}  // namespace calib::report
+} // namespace calib::report

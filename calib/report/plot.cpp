@@ -18,11 +18,10 @@ namespace calib::report {
 Color palette(std::size_t i)
 {
     // Tableau 10, then darker companions, so 20 series stay distinct.
-    static const Color colors[] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44},  {214, 39, 40},
-                                   {148, 103, 189}, {140, 86, 75}, {227, 119, 194}, {127, 127, 127},
-                                   {188, 189, 34},  {23, 190, 207}, {10, 60, 110},  {160, 80, 0},
-                                   {20, 90, 20},    {120, 10, 10},  {80, 50, 120},  {80, 40, 30},
-                                   {150, 40, 110},  {40, 40, 40},   {110, 110, 0},  {0, 110, 120}};
+    static const Color colors[] = {{31, 119, 180}, {255, 127, 14},  {44, 160, 44},   {214, 39, 40},  {148, 103, 189},
+                                   {140, 86, 75},  {227, 119, 194}, {127, 127, 127}, {188, 189, 34}, {23, 190, 207},
+                                   {10, 60, 110},  {160, 80, 0},    {20, 90, 20},    {120, 10, 10},  {80, 50, 120},
+                                   {80, 40, 30},   {150, 40, 110},  {40, 40, 40},    {110, 110, 0},  {0, 110, 120}};
     return colors[i % (sizeof colors / sizeof colors[0])];
 }
 
@@ -55,7 +54,7 @@ void set_style(cairo_t *cr, LineStyle s, double width)
         const double d[2] = {4 * width + 2, 2.5 * width + 1};
         cairo_set_dash(cr, d, 2, 0);
     } else if (s == LineStyle::dotted) {
-        const double d[2] = {0, 2 * width + 1};  // round caps on zero-length dashes: dots
+        const double d[2] = {0, 2 * width + 1}; // round caps on zero-length dashes: dots
         cairo_set_dash(cr, d, 2, 0);
     } else {
         cairo_set_dash(cr, nullptr, 0, 0);
@@ -171,7 +170,7 @@ void draw(const Plot &p, const Layout &lay, cairo_t *cr)
     const double ty0 = tf(ty.lo, p.y.scale), ty1 = tf(ty.hi, p.y.scale);
     auto X = [&](double v) { return area.x + (tf(v, p.x.scale) - tx0) / (tx1 - tx0) * area.w; };
     auto Y = [&](double v) { return area.y + area.h - (tf(v, p.y.scale) - ty0) / (ty1 - ty0) * area.h; };
-    auto crisp = [](double v) { return std::round(v - 0.5) + 0.5; };  // a 1 px line on one pixel column
+    auto crisp = [](double v) { return std::round(v - 0.5) + 0.5; }; // a 1 px line on one pixel column
 
     for (double v : tx.major)
         line(cr, crisp(X(v)), area.y, crisp(X(v)), area.y + area.h, grid_grey);
@@ -215,7 +214,7 @@ void draw(const Plot &p, const Layout &lay, cairo_t *cr)
         const Color c = s.color.value_or(palette(si));
         set_style(cr, s.style, s.width_px);
         canvas::set_color(cr, c);
-        bool open = false;  // a NaN (or <= 0 on a log axis) ends the current run
+        bool open = false; // a NaN (or <= 0 on a log axis) ends the current run
         double last_x = 0, last_y = 0;
         for (std::size_t i = 0; i < s.x.size(); ++i) {
             if (!usable(s.x[i], p.x.scale) || !usable(s.y[i], p.y.scale)) {
@@ -249,12 +248,13 @@ void draw(const Plot &p, const Layout &lay, cairo_t *cr)
     draw_legend(cr, p, area);
 }
 
-}  // namespace
+} // namespace
 
 std::string render_svg(const Plot &plot)
 {
     const Layout lay = ticks_of(plot);
-    return canvas::paint_svg(plot.width_px, plot.height_px, [&](cairo_t *cr) { draw(plot, lay, cr); }, plot.title);
+    return canvas::paint_svg(
+        plot.width_px, plot.height_px, [&](cairo_t *cr) { draw(plot, lay, cr); }, plot.title);
 }
 
 Image render_image(const Plot &plot)
@@ -283,4 +283,4 @@ void write_plot(const Plot &plot, const std::string &path)
         throw std::invalid_argument(path + ": plot file must end in .svg or .png");
 }
 
-}  // namespace calib::report
+} // namespace calib::report

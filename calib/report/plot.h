@@ -22,7 +22,7 @@
 namespace calib::report {
 
 enum class AxisScale { linear, log };
-enum class LineStyle { solid, dashed, dotted, none };  // none: markers only
+enum class LineStyle { solid, dashed, dotted, none }; // none: markers only
 enum class LegendPosition { top_right, top_left, bottom_right, bottom_left, hidden };
 
 // The i-th colour of the default palette (Tableau 10), cycling.
@@ -34,20 +34,21 @@ struct Axis {
 
     std::string label;
     AxisScale scale = AxisScale::linear;
-    std::optional<double> min, max;  // unset: fit the data (log: positive data only)
+    std::optional<double> min, max; // unset: fit the data (log: positive data only)
 };
 
 struct Series {
     Series() = default;
     Series(std::string label_, std::vector<double> x_, std::vector<double> y_, LineStyle style_ = LineStyle::solid,
            std::optional<Color> color_ = std::nullopt)
-        : label(std::move(label_)), x(std::move(x_)), y(std::move(y_)), style(style_), color(color_) {}
+        : label(std::move(label_)), x(std::move(x_)), y(std::move(y_)), style(style_), color(color_)
+    {}
 
-    std::string label;               // empty: not in the legend
-    std::vector<double> x, y;        // same length; a NaN (or <= 0 on a log axis) breaks the line
+    std::string label;        // empty: not in the legend
+    std::vector<double> x, y; // same length; a NaN (or <= 0 on a log axis) breaks the line
     LineStyle style = LineStyle::solid;
-    std::optional<Color> color;      // unset: palette(index of the series)
-    bool markers = false;            // a dot at every point
+    std::optional<Color> color; // unset: palette(index of the series)
+    bool markers = false;       // a dot at every point
     double width_px = 2.0;
 };
 
@@ -81,4 +82,4 @@ void write_png(const Plot &plot, const std::string &path);
 // std::invalid_argument naming the path.
 void write_plot(const Plot &plot, const std::string &path);
 
-}  // namespace calib::report
+} // namespace calib::report

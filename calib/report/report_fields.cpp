@@ -156,8 +156,7 @@ std::string contrast_map_html(const ReportContext &c)
             crossing++;
             s.markers.push_back({m.at.x_m, m.at.y_m, "", Marker::Kind::point});
         }
-    const std::vector<std::string> img =
-        render_field_uris({nearest_focus_map(at, db, c.input->active.area)}, {s});
+    const std::vector<std::string> img = render_field_uris({nearest_focus_map(at, db, c.input->active.area)}, {s});
     std::ostringstream h;
     h << "<h2>Whole-area contrast over the active area</h2><figure><img src='" << img[0]
       << "' alt='whole-area contrast per focus'><figcaption>Each focus's cell (the points nearer to it than to any "
@@ -166,12 +165,12 @@ std::string contrast_map_html(const ReportContext &c)
       << num(c.input->pulse.amplitude_m * 1e6) << " um target / " << num(c.input->calibration.threshold_m * 1e6)
       << " um threshold), the margin a focus at its target peak needs for nothing beyond lambda/2 to reach the "
       << "threshold. Crosses: the " << crossing << " of " << v.foci.size()
-      << " foci where something beyond lambda/2 does reach it. Labelled: the worst focus. Range "
-      << num(*lo) << " to " << num(*hi) << " dB.</figcaption></figure>";
+      << " foci where something beyond lambda/2 does reach it. Labelled: the worst focus. Range " << num(*lo) << " to "
+      << num(*hi) << " dB.</figcaption></figure>";
     return h.str();
 }
 
-}  // namespace
+} // namespace
 
 std::string field_sections_html(const ReportContext &c, const std::vector<size_t> &shown)
 {
@@ -190,4 +189,4 @@ std::string field_sections_html(const ReportContext &c, const std::vector<size_t
     return h.str();
 }
 
-}  // namespace calib::report
+} // namespace calib::report

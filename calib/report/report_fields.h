@@ -28,4 +28,4 @@ std::string field_sections_html(const ReportContext &c, const std::vector<std::s
 // A number for the page, `prec` significant digits.
 std::string num(double v, int prec = 3);
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -18,7 +18,7 @@ std::string tick_label(double v, double step)
     const double a = std::abs(v);
     if (a >= 1e6 || a < 1e-3) {
         std::snprintf(buf, sizeof buf, "%.3g", v);
-        std::string o = buf;  // 2.5e+06 -> 2.5e6
+        std::string o = buf; // 2.5e+06 -> 2.5e6
         for (const char *from : {"e+0", "e+", "e-0"}) {
             const std::size_t at = o.find(from);
             if (at != std::string::npos) {
@@ -74,7 +74,7 @@ Ticks log_ticks(const Axis &axis, double dmin, double dmax, const char *which)
     return t;
 }
 
-}  // namespace
+} // namespace
 
 Ticks make_ticks(const Axis &axis, double dmin, double dmax, const char *which)
 {
@@ -101,11 +101,11 @@ Ticks make_ticks(const Axis &axis, double dmin, double dmax, const char *which)
     t.hi = axis.max ? hi : std::ceil(hi / step - 1e-9) * step;
     const long first = std::lround(std::ceil(t.lo / step - 1e-9)), last = std::lround(std::floor(t.hi / step + 1e-9));
     for (long k = first; k <= last; ++k) {
-        const double v = static_cast<double>(k) * step;  // no accumulated round-off
+        const double v = static_cast<double>(k) * step; // no accumulated round-off
         t.major.push_back(k == 0 ? 0.0 : v);
         t.labels.push_back(tick_label(k == 0 ? 0.0 : v, step));
     }
     return t;
 }
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -9,9 +9,9 @@
 namespace calib::report {
 
 struct Ticks {
-    double lo = 0, hi = 0;               // axis range (data units)
+    double lo = 0, hi = 0; // axis range (data units)
     std::vector<double> major, minor;
-    std::vector<std::string> labels;     // one per major tick
+    std::vector<std::string> labels; // one per major tick
 };
 
 // The range is the axis's min/max where set, else [data_min, data_max]
@@ -19,4 +19,4 @@ struct Ticks {
 // Throws std::invalid_argument for a log axis with min or max <= 0.
 Ticks make_ticks(const Axis &axis, double data_min, double data_max, const char *which);
 
-}  // namespace calib::report
+} // namespace calib::report

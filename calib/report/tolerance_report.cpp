@@ -28,7 +28,8 @@ toml::table figures_json(const CaseFigures &c)
 
 std::string line(const std::string &name, const CaseFigures &c, std::size_t foci)
 {
-    return (name + std::string(34, ' ')).substr(0, std::max<std::size_t>(34, name.size())) + fmt(" %7.2f dB", c.worst_whole_area_contrast_db) + fmt("  peak %5.2f", c.min_peak_m * 1e6) +
+    return (name + std::string(34, ' ')).substr(0, std::max<std::size_t>(34, name.size())) +
+           fmt(" %7.2f dB", c.worst_whole_area_contrast_db) + fmt("  peak %5.2f", c.min_peak_m * 1e6) +
            fmt("-%5.2f um", c.max_peak_m * 1e6) + fmt("  offset %5.1f mm", c.max_offset_m * 1e3) + "  verdict: pass " +
            std::to_string(c.foci_passing) + "/" + std::to_string(foci) + ", area crosses at " +
            std::to_string(c.area_crossings) + "\n";
@@ -47,7 +48,7 @@ std::string html_row(const std::string &name, const CaseFigures &c, std::size_t 
     return h.str();
 }
 
-}  // namespace
+} // namespace
 
 toml::table tolerance_json(const pipeline::ToleranceReport &r)
 {
@@ -96,8 +97,8 @@ std::string tolerance_text(const pipeline::ToleranceReport &r, std::size_t foci)
         s += line("  plain design, worst over the box", *r.nominal_design_worst, foci);
         if (r.nominal_design_compensated_worst)
             s += line("  plain design, worst, compensated", *r.nominal_design_compensated_worst, foci);
-        s += "  robust design over " + std::to_string(r.ensemble.size() + 1) + " plates: " +
-             fmt("%.1f s", r.ensemble_seconds) + ", peak per drive energy " +
+        s += "  robust design over " + std::to_string(r.ensemble.size() + 1) +
+             " plates: " + fmt("%.1f s", r.ensemble_seconds) + ", peak per drive energy " +
              fmt("%+.1f %%", 100 * (r.nominal.peak_per_energy / r.nominal_design->peak_per_energy - 1)) +
              " against the plain design\n";
     }
@@ -119,7 +120,8 @@ std::string tolerance_html(const pipeline::ToleranceReport &r, std::size_t foci)
         h << " Speed compensation: the device plays each panel at its speed ratio (the panel's kappa over the "
              "nominal plate's; hapticd [panel]); the rows marked <i>compensated</i> are the table stretched by it.";
     h << "</p><table><tr><th>plate</th><th>worst-focus whole-area contrast (dB)</th><th>peak (um)</th>"
-         "<th>perceived offset (mm)</th><th>lead (ms)</th><th>foci passing the verdict</th><th>area crosses at</th></tr>";
+         "<th>perceived offset (mm)</th><th>lead (ms)</th><th>foci passing the verdict</th><th>area crosses "
+         "at</th></tr>";
     h << html_row("nominal", r.nominal, foci, false);
     if (r.nominal_design)
         h << html_row("nominal, plain design", *r.nominal_design, foci, false);
@@ -139,10 +141,10 @@ std::string tolerance_html(const pipeline::ToleranceReport &r, std::size_t foci)
     if (r.compensated_worst)
         h << html_row("worst over the box, speed compensated", *r.compensated_worst, foci, true);
     if (r.nominal_design_compensated_worst)
-        h << html_row("worst over the box, plain design, speed compensated", *r.nominal_design_compensated_worst,
-                      foci, true);
+        h << html_row("worst over the box, plain design, speed compensated", *r.nominal_design_compensated_worst, foci,
+                      true);
     h << "</table>";
     return h.str();
 }
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -18,4 +18,4 @@ std::string tolerance_text(const pipeline::ToleranceReport &r, std::size_t foci)
 // An <h2> section with the table of every plate.
 std::string tolerance_html(const pipeline::ToleranceReport &r, std::size_t foci);
 
-}  // namespace calib::report
+} // namespace calib::report

@@ -32,4 +32,4 @@ pipeline::CalibrationInput calibration_input(std::string_view toml_text, const s
     return calibration_input(s, build_plate(s), toml_text);
 }
 
-}  // namespace calib::scene
+} // namespace calib::scene

@@ -19,4 +19,4 @@ pipeline::CalibrationInput calibration_input(const Scene &s, const PlateSetup &s
 // Parse, build the plate and collect, from scene text.
 pipeline::CalibrationInput calibration_input(std::string_view toml_text, const std::string &file_name);
 
-}  // namespace calib::scene
+} // namespace calib::scene

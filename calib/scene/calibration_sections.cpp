@@ -76,7 +76,7 @@ unsigned count_in(const Fields &f, std::string_view key, unsigned fallback, long
     return static_cast<unsigned>(*v);
 }
 
-}  // namespace
+} // namespace
 
 pipeline::ActiveAreaSpec parse_active_area(const Fields &f)
 {
@@ -97,13 +97,12 @@ pipeline::ExcitersSpec parse_exciters(const Fields &f)
     using pipeline::PlacementMode, pipeline::PlacementCriterion;
     pipeline::ExcitersSpec e;
     e.count = count_in(f, "count", 8, 1, 32);
-    e.placement = one_of<PlacementMode>(f, "placement", PlacementMode::random,
-                                        {{"random", PlacementMode::random},
-                                         {"regular", PlacementMode::regular},
-                                         {"fixed", PlacementMode::fixed}});
-    e.criterion = one_of<PlacementCriterion>(f, "criterion", PlacementCriterion::contrast,
-                                             {{"contrast", PlacementCriterion::contrast},
-                                              {"distance_variety", PlacementCriterion::distance_variety}});
+    e.placement = one_of<PlacementMode>(
+        f, "placement", PlacementMode::random,
+        {{"random", PlacementMode::random}, {"regular", PlacementMode::regular}, {"fixed", PlacementMode::fixed}});
+    e.criterion = one_of<PlacementCriterion>(
+        f, "criterion", PlacementCriterion::contrast,
+        {{"contrast", PlacementCriterion::contrast}, {"distance_variety", PlacementCriterion::distance_variety}});
     if (auto s = f.integer("seed")) {
         if (*s < 0)
             f.fail("seed", "must be >= 0, got " + std::to_string(*s));
@@ -131,8 +130,8 @@ pipeline::ExcitersSpec parse_exciters(const Fields &f)
         if (!f.has("count"))
             e.count = static_cast<unsigned>(e.positions.size());
         if (e.positions.size() != e.count)
-            f.fail("positions_m", std::to_string(e.positions.size()) + " positions for count = " +
-                                      std::to_string(e.count));
+            f.fail("positions_m",
+                   std::to_string(e.positions.size()) + " positions for count = " + std::to_string(e.count));
         if (e.count < 1 || e.count > 32)
             f.fail("positions_m", "1 to 32 positions");
     } else if (e.placement == PlacementMode::fixed) {
@@ -146,7 +145,9 @@ pipeline::FociSpec parse_foci(const Fields &f, const pipeline::ActiveAreaSpec &a
     pipeline::FociSpec s;
     const bool grid = f.has("grid"), pitch = f.has("pitch_m"), points = f.has("points_m");
     if (int(grid) + int(pitch) + int(points) != 1)
-        f.fail(points ? "points_m" : pitch ? "pitch_m" : "grid",
+        f.fail(points  ? "points_m"
+               : pitch ? "pitch_m"
+                       : "grid",
                "give exactly one of grid = [nx, ny], pitch_m = p or points_m = [[x, y], ...]");
     const pipeline::Rect &a = active.area;
     if (grid) {
@@ -161,8 +162,8 @@ pipeline::FociSpec parse_foci(const Fields &f, const pipeline::ActiveAreaSpec &a
         uint32_t id = 1;
         for (int j = 0; j < static_cast<int>(ny); j++)
             for (int i = 0; i < static_cast<int>(nx); i++)
-                s.points.push_back({id++, {a.x0_m + (a.x1_m - a.x0_m) * (i + 0.5) / nx,
-                                           a.y0_m + (a.y1_m - a.y0_m) * (j + 0.5) / ny}});
+                s.points.push_back(
+                    {id++, {a.x0_m + (a.x1_m - a.x0_m) * (i + 0.5) / nx, a.y0_m + (a.y1_m - a.y0_m) * (j + 0.5) / ny}});
     } else if (pitch) {
         // A square grid of this pitch filling the active area: as many points
         // per axis as fit (the span a multiple of the pitch), centred, row by
@@ -262,4 +263,4 @@ pipeline::CalibrationSpec parse_calibration(const Fields &f)
     return c;
 }
 
-}  // namespace calib::scene
+} // namespace calib::scene

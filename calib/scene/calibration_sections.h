@@ -15,4 +15,4 @@ pipeline::FociSpec parse_foci(const Fields &f, const pipeline::ActiveAreaSpec &a
 pipeline::PulseSpec parse_pulse(const Fields &f);
 pipeline::CalibrationSpec parse_calibration(const Fields &f);
 
-}  // namespace calib::scene
+} // namespace calib::scene

@@ -20,7 +20,7 @@ double non_negative(const Fields &f, std::string_view key, double fallback)
     return *v;
 }
 
-}  // namespace
+} // namespace
 
 engine::effects::EffectsSpec parse_effects(const Fields &f, const PlateSpec &plate)
 {
@@ -43,8 +43,9 @@ engine::effects::EffectsSpec parse_effects(const Fields &f, const PlateSpec &pla
         s.x_m = (*pos)[0];
         s.y_m = (*pos)[1];
         if (!(s.x_m >= 0 && s.x_m <= plate.size_x_m && s.y_m >= 0 && s.y_m <= plate.size_y_m))
-            ft->fail("position_m", "[" + format_number(s.x_m) + ", " + format_number(s.y_m) + "] is off the plate [0, " +
-                                       format_number(plate.size_x_m) + "] x [0, " + format_number(plate.size_y_m) + "]");
+            ft->fail("position_m", "[" + format_number(s.x_m) + ", " + format_number(s.y_m) +
+                                       "] is off the plate [0, " + format_number(plate.size_x_m) + "] x [0, " +
+                                       format_number(plate.size_y_m) + "]");
         e.finger = s;
     }
     if (auto xt = f.table("exciter", {"moving_mass_kg", "stiffness_n_m", "damping_n_s_m", "force_factor_n_a",
@@ -68,4 +69,4 @@ engine::effects::EffectsSpec parse_effects(const Fields &f, const PlateSpec &pla
     return e;
 }
 
-}  // namespace calib::scene
+} // namespace calib::scene

@@ -12,4 +12,4 @@ struct PlateSpec;
 // `loss = true` needs its [plate.loss]). Throws SceneError naming the key.
 engine::effects::EffectsSpec parse_effects(const Fields &f, const PlateSpec &plate);
 
-}  // namespace calib::scene
+} // namespace calib::scene

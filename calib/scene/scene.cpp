@@ -127,7 +127,7 @@ void parse_simulation(const toml::table &t, Scene &scene)
     if (s.grid_spacing_m && f.has("points_per_wavelength"))
         f.fail("points_per_wavelength", "give either points_per_wavelength or grid_spacing_m, not both");
     if (auto v = f.positive("f_max_hz"))
-        s.f_max_hz = *v;  // else: from [pulse], or refused after all sections are read
+        s.f_max_hz = *v; // else: from [pulse], or refused after all sections are read
     if (auto v = f.positive("points_per_wavelength")) {
         if (*v < 4)
             f.fail("points_per_wavelength", "must be >= 4, got " + format_number(*v));
@@ -163,15 +163,16 @@ struct Section {
 };
 void parse_active_area_section(const toml::table &t, Scene &scene)
 {
-    scene.active_area = parse_active_area(Fields(t, scene.file, "active_area", {"rect_m", "frame_margin_m", "clearance_m"}));
+    scene.active_area =
+        parse_active_area(Fields(t, scene.file, "active_area", {"rect_m", "frame_margin_m", "clearance_m"}));
 }
 
 void parse_exciters_section(const toml::table &t, Scene &scene)
 {
-    scene.exciters = parse_exciters(Fields(t, scene.file, "exciters",
-                                           {"count", "placement", "criterion", "seed", "min_spacing_m",
-                                            "force_full_scale_n", "positions_m", "site_spacing_m", "restarts",
-                                            "iterations", "verdict_rounds", "contrast_window", "placement_foci"}));
+    scene.exciters = parse_exciters(
+        Fields(t, scene.file, "exciters",
+               {"count", "placement", "criterion", "seed", "min_spacing_m", "force_full_scale_n", "positions_m",
+                "site_spacing_m", "restarts", "iterations", "verdict_rounds", "contrast_window", "placement_foci"}));
 }
 
 void parse_foci_section(const toml::table &t, Scene &scene)
@@ -194,23 +195,23 @@ void parse_calibration_section(const toml::table &t, Scene &scene)
                    {"window_s", "truncate_fraction", "output_rate_hz", "sample_format", "threshold_m", "dither",
                     "accuracy", "verify_tail_s", "method", "lead_time_s", "regularization", "robust"});
     scene.calibration = parse_calibration(f);
-    if (f.has("robust"))  // with either method (pipeline/robustness/robust_design.h)
+    if (f.has("robust")) // with either method (pipeline/robustness/robust_design.h)
         scene.robust = parse_robust(f);
 }
 
 void parse_tolerance_section(const toml::table &t, Scene &scene)
 {
-    scene.tolerance = parse_tolerance(Fields(t, scene.file, "tolerance",
-                                             {"E_rel", "rho_rel", "thickness_rel", "loss", "loss_scale",
-                                              "exciter_position_m", "temperature_k", "E_per_k", "speed_compensation",
-                                              "random_cases", "seed"}),
-                                      scene.plate);
+    scene.tolerance =
+        parse_tolerance(Fields(t, scene.file, "tolerance",
+                               {"E_rel", "rho_rel", "thickness_rel", "loss", "loss_scale", "exciter_position_m",
+                                "temperature_k", "E_per_k", "speed_compensation", "random_cases", "seed"}),
+                        scene.plate);
 }
 
 void parse_effects_section(const toml::table &t, Scene &scene)
 {
-    scene.effects = parse_effects(Fields(t, scene.file, "effects", {"loss", "thick_plate", "finger", "exciter"}),
-                                  scene.plate);
+    scene.effects =
+        parse_effects(Fields(t, scene.file, "effects", {"loss", "thick_plate", "finger", "exciter"}), scene.plate);
 }
 
 // The order matters where a section uses another: [foci] grids divide the active area.
@@ -226,7 +227,7 @@ constexpr Section sections[] = {
     {"tolerance", false, parse_tolerance_section},
 };
 
-}  // namespace
+} // namespace
 
 Scene parse_scene(std::string_view text, const std::string &file_name)
 {
@@ -326,7 +327,7 @@ PlateSetup build_plate(const Scene &scene)
     params.material = p.material;
     params.edges = p.edges;
     const double kappa = p.material.kappa(p.thickness_m);
-    if (p.loss && scene.effects.loss.value_or(true)) {  // effects.loss = false switches it off
+    if (p.loss && scene.effects.loss.value_or(true)) { // effects.loss = false switches it off
         try {
             params.loss = engine::loss_from_t60(kappa, p.loss->f1_hz, p.loss->t60_1_s, p.loss->f2_hz, p.loss->t60_2_s);
         } catch (const std::invalid_argument &e) {
@@ -351,8 +352,7 @@ PlateSetup build_plate(const Scene &scene)
     // simulation of the scene.
     if (scene.effects.thick_plate) {
         try {
-            setup.options.thick_plate_operator =
-                std::make_shared<const engine::mindlin::MindlinOperator>(params, grid);
+            setup.options.thick_plate_operator = std::make_shared<const engine::mindlin::MindlinOperator>(params, grid);
         } catch (const std::invalid_argument &e) {
             throw SceneError(scene.file + ": effects.thick_plate: " + e.what());
         }
@@ -361,4 +361,4 @@ PlateSetup build_plate(const Scene &scene)
     return setup;
 }
 
-}  // namespace calib::scene
+} // namespace calib::scene

@@ -43,18 +43,18 @@ struct PlateSpec {
 
 // [simulation]
 struct SimulationSpec {
-    double f_max_hz = 0;                         // highest frequency to resolve
-    double points_per_wavelength = 20;           // at f_max (A0, Kirchhoff)
-    std::optional<double> grid_spacing_m;        // overrides points_per_wavelength
-    double courant = 0.95;                       // fraction of the stability bound
-    std::optional<double> time_step_s;           // forced step (refused beyond the bound)
+    double f_max_hz = 0;                  // highest frequency to resolve
+    double points_per_wavelength = 20;    // at f_max (A0, Kirchhoff)
+    std::optional<double> grid_spacing_m; // overrides points_per_wavelength
+    double courant = 0.95;                // fraction of the stability bound
+    std::optional<double> time_step_s;    // forced step (refused beyond the bound)
     engine::Precision precision = engine::Precision::f32;
-    int threads = 0;                             // 0: all
+    int threads = 0; // 0: all
 };
 
 struct Scene {
-    std::string file;  // as given, for messages
-    std::string name;  // top-level `name = "..."`, default: the file name without .toml
+    std::string file; // as given, for messages
+    std::string name; // top-level `name = "..."`, default: the file name without .toml
     PlateSpec plate;
     SimulationSpec simulation;
     // The calibration sections (docs/scene-format.md); `calibrate` needs all five.
@@ -63,9 +63,9 @@ struct Scene {
     std::optional<pipeline::FociSpec> foci;
     std::optional<pipeline::PulseSpec> pulse;
     std::optional<pipeline::CalibrationSpec> calibration;
-    engine::effects::EffectsSpec effects;  // [effects] (docs/scene-format.md); all off when absent
-    std::optional<pipeline::ToleranceSpec> tolerance;  // [tolerance] (docs/robustness.md)
-    std::optional<pipeline::RobustSpec> robust;        // [calibration] robust = { ... }
+    engine::effects::EffectsSpec effects;             // [effects] (docs/scene-format.md); all off when absent
+    std::optional<pipeline::ToleranceSpec> tolerance; // [tolerance] (docs/robustness.md)
+    std::optional<pipeline::RobustSpec> robust;       // [calibration] robust = { ... }
     bool calibration_sections() const { return active_area && exciters && foci && pulse && calibration; }
 };
 
@@ -88,4 +88,4 @@ PlateSetup build_plate(const Scene &scene);
 // naming the cell count and the keys for a grid past the engine's limit.
 engine::Grid plate_grid(const Scene &scene);
 
-}  // namespace calib::scene
+} // namespace calib::scene

@@ -11,8 +11,8 @@ namespace calib::scene {
 namespace {
 
 // A relative half-width: >= 0, and below 1 so that the low end stays positive.
-double half_width(const Fields &f, std::string_view key, const std::string &what, double nominal,
-                  const char *unit, double unit_scale)
+double half_width(const Fields &f, std::string_view key, const std::string &what, double nominal, const char *unit,
+                  double unit_scale)
 {
     auto v = f.number(key);
     if (!v)
@@ -20,8 +20,8 @@ double half_width(const Fields &f, std::string_view key, const std::string &what
     if (!(*v >= 0 && std::isfinite(*v)))
         f.fail(key, "must be >= 0 (a relative half-width), got " + format_number(*v));
     if (*v >= 1)
-        f.fail(key, format_number(*v) + " makes " + what + " " + format_number((1 - *v) * nominal * unit_scale) +
-                        " " + unit + " at the low end (a plate needs it > 0)");
+        f.fail(key, format_number(*v) + " makes " + what + " " + format_number((1 - *v) * nominal * unit_scale) + " " +
+                        unit + " at the low end (a plate needs it > 0)");
     return *v;
 }
 
@@ -42,7 +42,7 @@ std::vector<double> positive_list(const Fields &f, std::string_view key)
     return v;
 }
 
-}  // namespace
+} // namespace
 
 pipeline::ToleranceSpec parse_tolerance(const Fields &f, const PlateSpec &plate)
 {
@@ -67,8 +67,8 @@ pipeline::ToleranceSpec parse_tolerance(const Fields &f, const PlateSpec &plate)
     }
     if (auto v = f.number("E_per_k")) {
         if (!(std::abs(*v) <= HAPTIC_TABLE_PANEL_MAX_YOUNGS_PER_K))
-            f.fail("E_per_k", "must be a relative change of E per kelvin within +-0.05 (5 %/K), got " +
-                                  format_number(*v));
+            f.fail("E_per_k",
+                   "must be a relative change of E per kelvin within +-0.05 (5 %/K), got " + format_number(*v));
         t.youngs_per_kelvin = *v;
     }
     if (auto v = f.number("temperature_k")) {
@@ -76,8 +76,8 @@ pipeline::ToleranceSpec parse_tolerance(const Fields &f, const PlateSpec &plate)
             f.fail("temperature_k", "must be >= 0 (kelvin either side), got " + format_number(*v));
         const double coef = pipeline::panel_youngs_per_kelvin(&t, plate.material);
         if (!(1 - std::abs(coef) * *v > 0))
-            f.fail("temperature_k", format_number(*v) + " K at dE/E/dT = " + format_number(coef) +
-                                        " per K makes Young's modulus <= 0");
+            f.fail("temperature_k",
+                   format_number(*v) + " K at dE/E/dT = " + format_number(coef) + " per K makes Young's modulus <= 0");
         t.temperature_k = *v;
     }
     if (auto b = f.boolean("speed_compensation"))
@@ -115,4 +115,4 @@ pipeline::RobustSpec parse_robust(const Fields &f)
     return spec;
 }
 
-}  // namespace calib::scene
+} // namespace calib::scene

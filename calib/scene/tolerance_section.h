@@ -14,4 +14,4 @@ pipeline::ToleranceSpec parse_tolerance(const Fields &f, const PlateSpec &plate)
 // `robust = { loss = [...], E_scale = [...] }` of [calibration]; `f` is [calibration].
 pipeline::RobustSpec parse_robust(const Fields &f);
 
-}  // namespace calib::scene
+} // namespace calib::scene

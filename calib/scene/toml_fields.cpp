@@ -54,7 +54,8 @@ std::optional<double> Fields::number(std::string_view key) const
         return *d;
     if (auto i = n->value_exact<int64_t>())
         return double(*i);
-    fail(key, std::string("must be a number, got ") + std::string(toml::impl::node_type_friendly_names[unsigned(n->type())]));
+    fail(key, std::string("must be a number, got ") +
+                  std::string(toml::impl::node_type_friendly_names[unsigned(n->type())]));
 }
 
 double Fields::required_number(std::string_view key) const
@@ -140,4 +141,4 @@ std::optional<Fields> Fields::table(std::string_view key, std::initializer_list<
     return Fields(*t, file_, key_path(key), known);
 }
 
-}  // namespace calib::scene
+} // namespace calib::scene

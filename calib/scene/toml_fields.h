@@ -16,12 +16,12 @@ namespace calib::scene {
 
 // One line: "<file>: <key path>: <what is wrong>".
 class SceneError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
 class Fields {
-public:
+  public:
     // `path` is the dotted name of this table ("plate", "plate.loss").
     Fields(const toml::table &table, std::string file, std::string path, std::initializer_list<const char *> known);
 
@@ -30,20 +30,20 @@ public:
     bool has(std::string_view key) const { return table_.contains(key); }
     const toml::node *node(std::string_view key) const { return table_.get(key); }
 
-    std::optional<double> number(std::string_view key) const;  // int or float
+    std::optional<double> number(std::string_view key) const; // int or float
     double required_number(std::string_view key) const;
-    std::optional<double> positive(std::string_view key) const;  // > 0 and finite
+    std::optional<double> positive(std::string_view key) const; // > 0 and finite
     double required_positive(std::string_view key) const;
     std::optional<std::string> string(std::string_view key) const;
     std::optional<long long> integer(std::string_view key) const;
-    std::optional<bool> boolean(std::string_view key) const;  // true or false, nothing else
+    std::optional<bool> boolean(std::string_view key) const; // true or false, nothing else
     // An array of exactly `n` numbers.
     std::optional<std::vector<double>> numbers(std::string_view key, std::size_t n) const;
     std::optional<Fields> table(std::string_view key, std::initializer_list<const char *> known) const;
 
     [[noreturn]] void fail(std::string_view key, const std::string &message) const;
 
-private:
+  private:
     void refuse_unknown() const;
 
     const toml::table &table_;
@@ -55,4 +55,4 @@ private:
 // "-1", "0.002", "1e+09": the value as the user wrote it, for messages.
 std::string format_number(double v);
 
-}  // namespace calib::scene
+} // namespace calib::scene

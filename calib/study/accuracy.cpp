@@ -29,8 +29,8 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 using io::fmt;
 
 struct Ring {
-    double beta = 0;   // wavenumber of the mode (rad/m)
-    double omega = 0;  // fitted angular frequency (rad/s)
+    double beta = 0;  // wavenumber of the mode (rad/m)
+    double omega = 0; // fitted angular frequency (rad/s)
 };
 
 template <typename T>
@@ -54,7 +54,7 @@ Ring ring_mode(const physics::Material &m, double thickness_m, double h, int nx,
     const double k = courant * h * h / (4 * op->kappa());
     engine::EngineOptions eo;
     eo.threads = 1;
-    eo.skip_stability_check = true;  // guaranteed by the bound above
+    eo.skip_stability_check = true; // guaranteed by the bound above
     engine::PlateEngine<T> eng(op, k, eo);
     const double lx = nx * h, ly = ny * h;
     std::vector<double> phi(g.node_count());
@@ -72,7 +72,7 @@ Ring ring_mode(const physics::Material &m, double thickness_m, double h, int nx,
     std::vector<double> u;
     u.reserve(steps + 1);
     u.push_back(eng.receiver_value(0));
-    for (size_t n = 0; n < steps; n++) {  // a lossless mode: no denormals to flush
+    for (size_t n = 0; n < steps; n++) { // a lossless mode: no denormals to flush
         eng.step();
         u.push_back(eng.receiver_value(0));
     }
@@ -107,7 +107,7 @@ Point2 snapshot_peak(const std::vector<float> &snap, int nx, int ny, double h)
     return {(i + di) * h, (j + dj) * h};
 }
 
-}  // namespace
+} // namespace
 
 const char *model_name(PlateModel m) { return m == PlateModel::kirchhoff ? "kirchhoff" : "mindlin"; }
 
@@ -154,8 +154,7 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
     r.scene_file = scene_path;
     r.scene_name = base.name;
     r.f_max_hz = model::scene_f_max_hz(base);
-    r.lambda_f_max_m =
-        physics::kirchhoff_wavelength_m(base.plate.material.kappa(base.plate.thickness_m), r.f_max_hz);
+    r.lambda_f_max_m = physics::kirchhoff_wavelength_m(base.plate.material.kappa(base.plate.thickness_m), r.f_max_hz);
 
     DispersionSetting s0;
     s0.points_per_wavelength = base.simulation.points_per_wavelength;
@@ -249,8 +248,8 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
             x.predicted.nx = g.nx;
             x.predicted.ny = g.ny;
             x.predicted.time_step_s = plan.time_step_s;
-            x.predicted.phase_error =
-                model::predicted_phase_error(sc.plate.material, sc.plate.thickness_m, r.f_max_hz, g.h, plan.time_step_s);
+            x.predicted.phase_error = model::predicted_phase_error(sc.plate.material, sc.plate.thickness_m, r.f_max_hz,
+                                                                   g.h, plan.time_step_s);
             const model::Prediction pred = model::predict(in, plan, &cost);
             x.predicted.seconds = pred.seconds;
             x.predicted.memory_mb = pred.memory_mb;
@@ -268,13 +267,13 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
             x.contrast_db = INFINITY;
             for (size_t f = 0; f < v.foci.size(); f++) {
                 const pipeline::FocusMetrics &fm = v.foci[f];
-                const double contrast = v.foci.size() > 1 ? fm.other_foci_contrast_db
-                                                          : 20 * std::log10(fm.peak_m / fm.max_elsewhere_m);
+                const double contrast =
+                    v.foci.size() > 1 ? fm.other_foci_contrast_db : 20 * std::log10(fm.peak_m / fm.max_elsewhere_m);
                 const Point2 at = snapshot_peak(v.snapshots[f], v.grid_nx, v.grid_ny, v.grid_h_m);
                 FocusOut fo{at.x, at.y, contrast};
                 per_focus[i].push_back(fo);
-                x.focus_position_error_m = std::max(x.focus_position_error_m,
-                                                    std::hypot(fo.px - v.foci[f].at.x_m, fo.py - v.foci[f].at.y_m));
+                x.focus_position_error_m =
+                    std::max(x.focus_position_error_m, std::hypot(fo.px - v.foci[f].at.x_m, fo.py - v.foci[f].at.y_m));
                 x.contrast_db = std::min(x.contrast_db, fo.contrast);
             }
             x.ran = true;
@@ -283,9 +282,8 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
         }
         if (progress)
             progress(x.ran ? "    phase error " + fmt("%+.3f %%", 100 * x.phase.relative_error) + ", calibrate " +
-                                 fmt("%.1f s", x.wall_s) + " (predicted " + fmt("%.1f s", x.predicted.seconds) +
-                                 "), " + fmt("%.0f MB", x.peak_rss_mb) + " (predicted " +
-                                 fmt("%.0f MB)", x.predicted.memory_mb)
+                                 fmt("%.1f s", x.wall_s) + " (predicted " + fmt("%.1f s", x.predicted.seconds) + "), " +
+                                 fmt("%.0f MB", x.peak_rss_mb) + " (predicted " + fmt("%.0f MB)", x.predicted.memory_mb)
                            : "    skipped: " + x.note);
     }
     // Against the reference.
@@ -296,10 +294,11 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
             for (size_t f = 0; f < per_focus[i].size(); f++) {
                 const FocusOut &a = per_focus[i][f], &b = per_focus[ref_row][f];
                 r.rows[i].focus_shift_m = std::max(r.rows[i].focus_shift_m, std::hypot(a.px - b.px, a.py - b.py));
-                r.rows[i].contrast_change_db = std::max(r.rows[i].contrast_change_db, std::abs(a.contrast - b.contrast));
+                r.rows[i].contrast_change_db =
+                    std::max(r.rows[i].contrast_change_db, std::abs(a.contrast - b.contrast));
             }
         }
     return r;
 }
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -24,7 +24,7 @@ const char *model_name(PlateModel m);
 
 // One point of the accuracy/time trade.
 struct DispersionSetting {
-    double points_per_wavelength = 12;  // per Kirchhoff A0 wavelength at f_max (as scene.cpp builds the grid)
+    double points_per_wavelength = 12; // per Kirchhoff A0 wavelength at f_max (as scene.cpp builds the grid)
     engine::Precision precision = engine::Precision::f32;
     double courant = 0.95;
     PlateModel model = PlateModel::kirchhoff;
@@ -56,12 +56,12 @@ struct StudyOptions {
     std::vector<double> courants = {0.5, 0.8};
     std::vector<double> window_factors = {0.5, 1.5};
     bool include_precision = true, include_model = true;
-    unsigned search_restarts = 2, search_iterations = 300;  // the reference's placement search (reduced), scene seed
+    unsigned search_restarts = 2, search_iterations = 300; // the reference's placement search (reduced), scene seed
     bool quiet = false;
 };
 
 struct StudyRow {
-    std::string knob;  // "ppw", "precision", "courant", "window", "model", "reference"
+    std::string knob; // "ppw", "precision", "courant", "window", "model", "reference"
     DispersionSetting setting;
     double window_s = 0;
     bool ran = false;
@@ -75,7 +75,7 @@ struct StudyRow {
     PhaseMeasurement phase;
     // Peak |w| of the focus-instant snapshot, located to sub-cell precision
     // (parabola through the largest node and its neighbours on each axis).
-    double focus_position_error_m = 0;  // worst over foci: |that peak - focus|
+    double focus_position_error_m = 0; // worst over foci: |that peak - focus|
     // Worst over foci: that peak's distance to the reference's peak. Every
     // setting plays the reference's exciter placement, so this and the
     // contrast change measure the grid alone and go to zero as it is refined.
@@ -84,18 +84,18 @@ struct StudyRow {
     // foci); a one-focus scene has none, so there it is the snapshot contrast
     // 20 log10(peak / max |w| farther than lambda/2 from the focus).
     double contrast_db = 0;
-    double contrast_change_db = 0;      // worst |contrast - reference contrast| over foci
-    double wall_s = 0;                  // calibrate() wall time
-    double simulate_s = 0, search_s = 0, verify_s = 0;  // its stages (pipeline::StageTimes)
-    double peak_rss_mb = 0;             // peak resident memory during calibrate()
+    double contrast_change_db = 0;                     // worst |contrast - reference contrast| over foci
+    double wall_s = 0;                                 // calibrate() wall time
+    double simulate_s = 0, search_s = 0, verify_s = 0; // its stages (pipeline::StageTimes)
+    double peak_rss_mb = 0;                            // peak resident memory during calibrate()
 };
 
 struct StudyResult {
     std::string scene_file, scene_name;
     double f_max_hz = 0;
     double lambda_f_max_m = 0;
-    model::CostModel cost;  // at the first swept setting
-    std::vector<pipeline::Point> exciters;  // the reference's placement, which every setting plays
+    model::CostModel cost;                 // at the first swept setting
+    std::vector<pipeline::Point> exciters; // the reference's placement, which every setting plays
     std::vector<StudyRow> rows;
 };
 
@@ -107,4 +107,4 @@ StudyResult run_accuracy_study(const std::string &scene_path, const StudyOptions
 // returns the markdown (also printed by the command).
 std::string write_study_report(const StudyResult &r, const std::string &dir);
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -19,7 +19,7 @@ namespace {
 
 using io::fmt;
 
-}  // namespace
+} // namespace
 
 std::string write_study_report(const StudyResult &r, const std::string &dir)
 {
@@ -30,7 +30,8 @@ std::string write_study_report(const StudyResult &r, const std::string &dir)
     std::ostringstream csv;
     csv << "scene,knob,points_per_wavelength,precision,courant,window_s,model,ran,h_m,nx,ny,time_step_s,"
            "phase_error_predicted,phase_error_measured,phase_velocity_exact_m_s,phase_velocity_measured_m_s,"
-           "focus_position_error_m,focus_shift_vs_reference_m,contrast_db,contrast_change_db,wall_s,simulate_s,search_s,"
+           "focus_position_error_m,focus_shift_vs_reference_m,contrast_db,contrast_change_db,wall_s,simulate_s,search_"
+           "s,"
            "verify_s,"
            "wall_s_predicted,peak_rss_mb,peak_rss_mb_predicted,note\n";
     for (const StudyRow &x : r.rows) {
@@ -42,10 +43,9 @@ std::string write_study_report(const StudyResult &r, const std::string &dir)
             << model_name(x.setting.model) << ',' << (x.ran ? 1 : 0) << ',' << x.predicted.h_m << ',' << x.predicted.nx
             << ',' << x.predicted.ny << ',' << x.predicted.time_step_s << ',' << x.predicted.phase_error << ','
             << x.phase.relative_error << ',' << x.phase.exact_m_s << ',' << x.phase.measured_m_s << ','
-            << x.focus_position_error_m << ',' << x.focus_shift_m << ',' << x.contrast_db << ','
-            << x.contrast_change_db << ',' << x.wall_s << ',' << x.simulate_s << ',' << x.search_s << ','
-            << x.verify_s << ',' << x.predicted.seconds << ',' << x.peak_rss_mb << ','
-            << x.predicted.memory_mb << ",\"" << note << "\"\n";
+            << x.focus_position_error_m << ',' << x.focus_shift_m << ',' << x.contrast_db << ',' << x.contrast_change_db
+            << ',' << x.wall_s << ',' << x.simulate_s << ',' << x.search_s << ',' << x.verify_s << ','
+            << x.predicted.seconds << ',' << x.peak_rss_mb << ',' << x.predicted.memory_mb << ",\"" << note << "\"\n";
     }
     io::write_file_atomic(dir + "/accuracy.csv", csv.str());
 
@@ -55,9 +55,8 @@ std::string write_study_report(const StudyResult &r, const std::string &dir)
     for (const StudyRow &x : r.rows)
         if (x.ran && x.knob == "ppw")
             sweep.push_back(&x);
-    std::sort(sweep.begin(), sweep.end(), [](auto *a, auto *b) {
-        return a->setting.points_per_wavelength < b->setting.points_per_wavelength;
-    });
+    std::sort(sweep.begin(), sweep.end(),
+              [](auto *a, auto *b) { return a->setting.points_per_wavelength < b->setting.points_per_wavelength; });
 
     report::Plot p;
     p.title = r.scene_name + ": error vs calibration time (f_max " + fmt("%.0f", r.f_max_hz) + " Hz)";
@@ -95,14 +94,14 @@ std::string write_study_report(const StudyResult &r, const std::string &dir)
         const physics::Material &m = sc.plate.material;
         const double d = sc.plate.thickness_m, exact = physics::a0_phase_velocity(m, d, r.f_max_hz);
         kirchhoff_gap = physics::kirchhoff_phase_velocity(m, d, r.f_max_hz) / exact - 1;
-        md << "Model gap at f_max (dispersion solver, no grid): Kirchhoff "
-           << fmt("%+.3f %%", 100 * kirchhoff_gap)
+        md << "Model gap at f_max (dispersion solver, no grid): Kirchhoff " << fmt("%+.3f %%", 100 * kirchhoff_gap)
            << ", Mindlin " << fmt("%+.3f %%", 100 * (physics::mindlin_phase_velocity(m, d, r.f_max_hz) / exact - 1))
            << " against exact A0: the floor no grid refinement of the Kirchhoff scheme removes.\n\n";
     }
     md << "To reach a phase-velocity error at f_max (measured, points-per-wavelength sweep, "
        << (sweep.empty() ? "-" : engine::precision_name(sweep[0]->setting.precision)) << "):\n\n";
-    md << "| target | cheapest setting | measured error | you pay (calibrate) | memory | focus shift | contrast change |\n";
+    md << "| target | cheapest setting | measured error | you pay (calibrate) | memory | focus shift | contrast change "
+          "|\n";
     md << "|---|---|---|---|---|---|---|\n";
     for (double target : {0.10, 0.03, 0.01, 0.003, 0.001}) {
         const StudyRow *hit = nullptr;
@@ -150,13 +149,12 @@ std::string write_study_report(const StudyResult &r, const std::string &dir)
             continue;
         }
         md << x.predicted.nx << " x " << x.predicted.ny << " (N " << fmt("%.2f", r.lambda_f_max_m / x.predicted.h_m)
-           << ") | " << (x.setting.model == PlateModel::kirchhoff ? fmt("%+.3f %%", 100 * x.predicted.phase_error) : "-")
-           << " | " << (x.setting.model == PlateModel::kirchhoff ? fmt("%+.3f %%", 100 * x.phase.relative_error) : "-")
-           << " | "
+           << ") | "
+           << (x.setting.model == PlateModel::kirchhoff ? fmt("%+.3f %%", 100 * x.predicted.phase_error) : "-") << " | "
+           << (x.setting.model == PlateModel::kirchhoff ? fmt("%+.3f %%", 100 * x.phase.relative_error) : "-") << " | "
            << fmt("%.1f", 1e3 * x.focus_position_error_m) << " | " << fmt("%.1f", 1e3 * x.focus_shift_m) << " | "
-           << fmt("%.1f", x.contrast_db) << " | " << fmt("%.2f", x.contrast_change_db) << " | "
-           << fmt("%.1f", x.wall_s) << " | " << fmt("%.1f", x.simulate_s + x.verify_s) << " ("
-           << fmt("%.1f", x.predicted.seconds) << ") | "
+           << fmt("%.1f", x.contrast_db) << " | " << fmt("%.2f", x.contrast_change_db) << " | " << fmt("%.1f", x.wall_s)
+           << " | " << fmt("%.1f", x.simulate_s + x.verify_s) << " (" << fmt("%.1f", x.predicted.seconds) << ") | "
            << fmt("%.0f", x.peak_rss_mb) << " (" << fmt("%.0f", x.predicted.memory_mb) << ") |\n";
     }
     md << "\nCost model at the first swept setting: " << fmt("%.3g", r.cost.seconds_per_node_step * 1e9) << " ns ("
@@ -167,4 +165,4 @@ std::string write_study_report(const StudyResult &r, const std::string &dir)
     return md.str();
 }
 
-}  // namespace calib::study
+} // namespace calib::study

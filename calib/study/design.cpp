@@ -37,10 +37,10 @@ std::optional<CaseResult> stored_result(const fs::path &dir, const Case &c)
         CaseResult r = decode_case(*text, p.string());
         if (r.id != c.id)
             return std::nullopt;
-        r.index = c.index;  // the same case may sit elsewhere in a reordered sweep
+        r.index = c.index; // the same case may sit elsewhere in a reordered sweep
         return r;
     } catch (const std::exception &) {
-        return std::nullopt;  // not ours or damaged: run the case again
+        return std::nullopt; // not ours or damaged: run the case again
     }
 }
 
@@ -52,7 +52,7 @@ std::string case_label(const Sweep &s, const Case &c)
     return l.empty() ? "base scene" : l;
 }
 
-}  // namespace
+} // namespace
 
 int run_design_study(const DesignOptions &o)
 {
@@ -102,7 +102,7 @@ int run_design_study(const DesignOptions &o)
     workers->run(
         todo,
         [&](size_t i) {
-            omp_set_num_threads(threads);  // per calling thread: the case's OpenMP regions
+            omp_set_num_threads(threads); // per calling thread: the case's OpenMP regions
             return encode_case(run_case(sweep, cases[i], rank));
         },
         [&](size_t i, const std::string &record) {
@@ -136,4 +136,4 @@ int run_design_study(const DesignOptions &o)
     return 0;
 }
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -11,7 +11,7 @@ namespace calib::study {
 
 struct DesignOptions {
     std::string sweep_path, report_dir;
-    int threads = 0;  // per rank; 0: this machine's cores shared among its ranks
+    int threads = 0; // per rank; 0: this machine's cores shared among its ranks
     bool quiet = false;
 };
 
@@ -19,4 +19,4 @@ struct DesignOptions {
 // part of the report). Throws for a sweep that cannot be run (one line).
 int run_design_study(const DesignOptions &options);
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -24,9 +24,12 @@ using Clock = std::chrono::steady_clock;
 const char *edge_word(engine::EdgeKind k)
 {
     switch (k) {
-    case engine::EdgeKind::clamped: return "clamped";
-    case engine::EdgeKind::simply_supported: return "simply_supported";
-    case engine::EdgeKind::free: return "free";
+    case engine::EdgeKind::clamped:
+        return "clamped";
+    case engine::EdgeKind::simply_supported:
+        return "simply_supported";
+    case engine::EdgeKind::free:
+        return "free";
     }
     return "?";
 }
@@ -75,7 +78,7 @@ std::string one_line(std::string s)
 // Every digit: a number reads back exactly.
 constexpr const char *exact = "%.17g";
 
-}  // namespace
+} // namespace
 
 CaseResult run_case(const Sweep &sweep, const Case &c, int rank)
 {
@@ -107,7 +110,7 @@ CaseResult run_case(const Sweep &sweep, const Case &c, int rank)
             r.worst_contrast_db = std::min(r.worst_contrast_db, contrast);
             r.max_spot_m = std::max(r.max_spot_m, m.spot_diameter_m);
             r.max_lead_time_s = std::max(r.max_lead_time_s, m.lead_time_s);
-            r.foci_meeting_criterion += m.passes();  // the verdict (data/verdict.h)
+            r.foci_meeting_criterion += m.passes(); // the verdict (data/verdict.h)
             const double peak = res.full_scale_peak_m.at(f);
             r.min_peak_m = std::min(r.min_peak_m, peak);
             const double e = drive_energy(res.signals.at(f), in.exciters.force_full_scale_n);
@@ -225,4 +228,4 @@ CaseResult decode_case(std::string_view text, const std::string &file)
     return r;
 }
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -25,15 +25,15 @@ struct CaseResult {
     std::string note;
     // Figures, worst over the foci (the integrator's guarantee is the worst focus).
     unsigned foci = 0;
-    unsigned foci_meeting_criterion = 0;  // focus crosses the threshold, every other focus stays below it
-    double worst_contrast_db = 0;         // min over foci: focal peak over the other foci, all times
-    double min_peak_m = 0;                // min over foci: focal peak at full scale
+    unsigned foci_meeting_criterion = 0; // focus crosses the threshold, every other focus stays below it
+    double worst_contrast_db = 0;        // min over foci: focal peak over the other foci, all times
+    double min_peak_m = 0;               // min over foci: focal peak at full scale
     // min over foci: focal peak at full scale per square root of the drive
     // energy sum_c sum_n F^2 / rate (N^2 s), F the force at each exciter: the
     // matched-filter efficiency, independent of the drive level.
-    double min_peak_per_sqrt_energy = 0;  // m / (N s^0.5)
-    double max_spot_m = 0;                // max over foci: half-peak spot diameter
-    double max_lead_time_s = 0;           // max over foci: drive start to focal peak
+    double min_peak_per_sqrt_energy = 0; // m / (N s^0.5)
+    double max_spot_m = 0;               // max over foci: half-peak spot diameter
+    double max_lead_time_s = 0;          // max over foci: drive start to focal peak
     // Cost, which depends on the machine and its load: kept out of the compared CSV.
     double wall_s = 0, simulation_s = 0, search_s = 0, verification_s = 0, peak_rss_mb = 0;
     int rank = 0;
@@ -46,9 +46,9 @@ CaseResult run_case(const Sweep &sweep, const Case &c, int rank);
 
 // The per-case result file: "key=value" lines, numbers with 17 significant
 // digits (the report reads them back exactly).
-std::string case_file_name(const Case &c);  // "<id>.case"
+std::string case_file_name(const Case &c); // "<id>.case"
 std::string encode_case(const CaseResult &r);
 // Throws std::runtime_error naming `file` for a file that is not a whole case record.
 CaseResult decode_case(std::string_view text, const std::string &file);
 
-}  // namespace calib::study
+} // namespace calib::study

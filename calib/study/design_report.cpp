@@ -30,13 +30,12 @@ std::string csv_field(const std::string &s)
 
 std::string inputs_csv(const CaseResult &r)
 {
-    return std::to_string(r.index) + "," + r.id + "," + csv_field(r.material) + "," + fmt("%.9g", r.thickness_m) +
-           "," + csv_field(r.edges) + "," + std::to_string(r.exciters) + "," + r.criterion + "," +
-           std::to_string(r.seed) + "," + fmt("%.9g", r.pulse_centre_hz) + "," + fmt("%.9g", r.pulse_cycles);
+    return std::to_string(r.index) + "," + r.id + "," + csv_field(r.material) + "," + fmt("%.9g", r.thickness_m) + "," +
+           csv_field(r.edges) + "," + std::to_string(r.exciters) + "," + r.criterion + "," + std::to_string(r.seed) +
+           "," + fmt("%.9g", r.pulse_centre_hz) + "," + fmt("%.9g", r.pulse_cycles);
 }
 
-const char *inputs_header =
-    "case,id,material,thickness_m,edges,exciters,criterion,seed,pulse_centre_hz,pulse_cycles";
+const char *inputs_header = "case,id,material,thickness_m,edges,exciters,criterion,seed,pulse_centre_hz,pulse_cycles";
 
 // A case's label from the inputs that vary across the sweep, except `skip`.
 struct Labeler {
@@ -120,16 +119,17 @@ void write_plots(const std::vector<CaseResult> &cases, const std::string &dir)
     c.x = {"exciters"};
     c.y = {"worst contrast (dB)"};
     c.legend = report::LegendPosition::bottom_right;
-    add_series(c, cases, [&](const CaseResult &r) { return label(r, false, true); },
-               [](const CaseResult &r) { return double(r.exciters); },
-               [](const CaseResult &r) { return r.worst_contrast_db; });
+    add_series(
+        c, cases, [&](const CaseResult &r) { return label(r, false, true); },
+        [](const CaseResult &r) { return double(r.exciters); },
+        [](const CaseResult &r) { return r.worst_contrast_db; });
     report::Plot s;
     s.title = "Largest focal spot against pulse centre frequency";
     s.x = {"pulse centre (Hz)"};
     s.y = {"largest half-peak spot diameter (mm)"};
-    add_series(s, cases, [&](const CaseResult &r) { return label(r, true, false); },
-               [](const CaseResult &r) { return r.pulse_centre_hz; },
-               [](const CaseResult &r) { return r.max_spot_m * 1e3; });
+    add_series(
+        s, cases, [&](const CaseResult &r) { return label(r, true, false); },
+        [](const CaseResult &r) { return r.pulse_centre_hz; }, [](const CaseResult &r) { return r.max_spot_m * 1e3; });
     for (const char *ext : {".svg", ".png"}) {
         report::write_plot(c, dir + "/contrast_vs_exciters" + ext);
         report::write_plot(s, dir + "/spot_vs_frequency" + ext);
@@ -173,11 +173,12 @@ std::string inputs_md(const CaseResult &r)
 }
 
 const char *table_head =
-    "| case | material | thickness (mm) | edges | exciters | criterion | seed | centre (Hz) | cycles | worst contrast | "
+    "| case | material | thickness (mm) | edges | exciters | criterion | seed | centre (Hz) | cycles | worst contrast "
+    "| "
     "foci meeting the criterion | largest spot | longest lead | peak / sqrt(drive energy) (m/(N s^0.5)) |\n"
     "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
 
-}  // namespace
+} // namespace
 
 std::string design_csv(const std::vector<CaseResult> &cases)
 {
@@ -219,7 +220,9 @@ std::string design_summary(const Sweep &sweep, const std::vector<CaseResult> &ca
       << "largest displacement at any other focus at any time; a focus meets the criterion when it crosses the "
       << "threshold while every other focus stays below it. Wall time and memory are in `timing.csv`.\n\n";
 
-    auto higher_contrast = [](const CaseResult &a, const CaseResult &b) { return a.worst_contrast_db > b.worst_contrast_db; };
+    auto higher_contrast = [](const CaseResult &a, const CaseResult &b) {
+        return a.worst_contrast_db > b.worst_contrast_db;
+    };
     auto fewer_exciters = [](const CaseResult &a, const CaseResult &b) {
         return a.exciters != b.exciters ? a.exciters < b.exciters : a.worst_contrast_db > b.worst_contrast_db;
     };
@@ -285,4 +288,4 @@ std::string write_design_report(const Sweep &sweep, const std::vector<CaseResult
     return md;
 }
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -21,4 +21,4 @@ std::string design_summary(const Sweep &sweep, const std::vector<CaseResult> &ca
 // Writes every file above into `dir` (atomically each); returns the summary.
 std::string write_design_report(const Sweep &sweep, const std::vector<CaseResult> &cases, const std::string &dir);
 
-}  // namespace calib::study
+} // namespace calib::study

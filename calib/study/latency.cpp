@@ -56,7 +56,7 @@ void run_case(const pipeline::CalibrationInput &base, const pipeline::TransferMa
         row.min_peak_m = std::min(row.min_peak_m, m.peak_m);
         row.margin_m = std::min(row.margin_m, in.calibration.threshold_m - m.max_whole_area_m);
         row.all_cross &= m.crosses_threshold;
-        row.all_alone &= m.passes();  // the verdict (data/verdict.h)
+        row.all_alone &= m.passes(); // the verdict (data/verdict.h)
         const pipeline::DriveFigures d = pipeline::drive_figures(in, r.signals[f].samples, unsigned(exciters.size()),
                                                                  in.calibration.output_rate_hz, m.peak_m);
         row.min_peak_per_root_energy = std::min(row.min_peak_per_root_energy, d.peak_per_root_energy);
@@ -115,7 +115,7 @@ std::string sets_line(const LatencyRow &row)
     return s;
 }
 
-}  // namespace
+} // namespace
 
 LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o, const LatencyProgress &progress)
 {
@@ -169,8 +169,8 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
     const pipeline::TransferMatrix H = pipeline::transfer_for(longest, res.exciters);
     res.transfer_s = since(t0);
 
-    const std::vector<double> regs = o.regularizations.empty() ? std::vector<double>{in.calibration.regularization}
-                                                               : o.regularizations;
+    const std::vector<double> regs =
+        o.regularizations.empty() ? std::vector<double>{in.calibration.regularization} : o.regularizations;
     std::vector<LatencyRow> cases;
     auto add = [&](pipeline::DriveMethod m, bool dflt, double lead) {
         LatencyRow row;
@@ -215,4 +215,4 @@ LatencyResult run_latency_study(const std::string &path, const LatencyOptions &o
     return res;
 }
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -21,9 +21,9 @@ namespace calib::study {
 
 struct LatencyOptions {
     std::vector<double> lead_times_s = {0.010, 0.015, 0.020, 0.025, 0.030, 0.040, 0.050, 0.060, 0.070, 0.080};
-    std::vector<double> regularizations;  // empty: the scene's
-    bool multitouch = true;               // verify every pair of foci too
-    bool triples = false;                 // ... and every triple of foci >= lambda/2 apart
+    std::vector<double> regularizations; // empty: the scene's
+    bool multitouch = true;              // verify every pair of foci too
+    bool triples = false;                // ... and every triple of foci >= lambda/2 apart
     // ... and, in the inverse filter's cases, each of those sets designed
     // jointly under the superposition's budget (pipeline/verification/multitouch.h)
     bool joint = false;
@@ -48,27 +48,27 @@ struct LatencyRow {
     // Two fingers (pipeline/verification/multitouch.h): pairs of foci >= lambda/2 apart
     // superposed with the firmware's energy normalisation.
     std::size_t pairs = 0, pairs_failing = 0;
-    uint32_t worst_pair[2] = {0, 0};     // focus ids
-    double worst_pair_margin_m = 0;      // min(weakest focus - threshold, threshold - max elsewhere)
-    std::size_t triples = 0, triples_failing = 0;  // three fingers (LatencyOptions::triples)
+    uint32_t worst_pair[2] = {0, 0};              // focus ids
+    double worst_pair_margin_m = 0;               // min(weakest focus - threshold, threshold - max elsewhere)
+    std::size_t triples = 0, triples_failing = 0; // three fingers (LatencyOptions::triples)
     uint32_t worst_triple[3] = {0, 0, 0};
     double worst_triple_margin_m = 0;
-    double max_sound_dba = 0;            // loudest focus: L_AE on axis at 0.5 m (pipeline/verification/radiation.h)
-    std::vector<pipeline::MultiTouchCase> sets;  // every pair (and triple) verified, superposed (and joint)
-    double seconds = 0;                  // design and verification wall time
-    std::string error;                   // a case that failed (refused lead time, ...)
+    double max_sound_dba = 0; // loudest focus: L_AE on axis at 0.5 m (pipeline/verification/radiation.h)
+    std::vector<pipeline::MultiTouchCase> sets; // every pair (and triple) verified, superposed (and joint)
+    double seconds = 0;                         // design and verification wall time
+    std::string error;                          // a case that failed (refused lead time, ...)
 };
 
 struct LatencyResult {
     std::string scene_file, scene_name;
     double threshold_m = 0;
-    double crossing_s = 0;               // the lead time's lower bound for these exciters
+    double crossing_s = 0; // the lead time's lower bound for these exciters
     // An ideal isotropic focus of the scene's pulse on its plate, on the same
     // criterion (pipeline/verification/focus_ceiling.h): what no layout of exciters beats
     // by forming a round focus.
     pipeline::FocusCeiling ceiling;
     std::vector<pipeline::Point> exciters;
-    std::vector<uint32_t> focus_ids;     // the scene's, by index
+    std::vector<uint32_t> focus_ids; // the scene's, by index
     double transfer_s = 0, placement_s = 0;
     std::vector<LatencyRow> rows;
 };
@@ -84,4 +84,4 @@ LatencyResult run_latency_study(const std::string &scene_path, const LatencyOpti
 // per set), their table in latency.md. Returns the markdown.
 std::string write_latency_report(const LatencyResult &r, const std::string &dir);
 
-}  // namespace calib::study
+} // namespace calib::study

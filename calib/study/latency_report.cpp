@@ -100,8 +100,8 @@ std::string write_joint(const LatencyResult &r, const std::string &dir)
                     csv << name(x.method) << ',' << x.regularization << ',' << (x.scene_default ? 1 : 0) << ','
                         << x.lead_target_s << ',' << ids(c.foci, r.focus_ids) << ','
                         << (v == &c.joint ? "joint" : "superposed") << ',' << v->gain << ',' << v->min_focus_peak_m
-                        << ',' << v->max_elsewhere_m << ',' << v->elsewhere_at.x_m << ',' << v->elsewhere_at.y_m
-                        << ',' << v->margin_m << ',' << (v->ok ? 1 : 0) << ',' << v->contrast_db() << '\n';
+                        << ',' << v->max_elsewhere_m << ',' << v->elsewhere_at.x_m << ',' << v->elsewhere_at.y_m << ','
+                        << v->margin_m << ',' << (v->ok ? 1 : 0) << ',' << v->contrast_db() << '\n';
                 }
                 fail_s += !c.superposed.ok;
                 fail_j += !c.joint.ok;
@@ -127,7 +127,7 @@ std::string write_joint(const LatencyResult &r, const std::string &dir)
                << " | " << lost << " |\n";
         }
     }
-    if (!any) {  // no joint designs: nothing of an earlier run's may stay beside this one
+    if (!any) { // no joint designs: nothing of an earlier run's may stay beside this one
         std::error_code ec;
         for (const char *f : {"/multitouch.csv", "/multitouch.svg", "/multitouch.png"})
             std::filesystem::remove(dir + f, ec);
@@ -140,7 +140,7 @@ std::string write_joint(const LatencyResult &r, const std::string &dir)
     return md.str();
 }
 
-}  // namespace
+} // namespace
 
 std::string write_latency_report(const LatencyResult &r, const std::string &dir)
 {
@@ -151,8 +151,10 @@ std::string write_latency_report(const LatencyResult &r, const std::string &dir)
     std::ostringstream csv;
     csv << "scene,method,regularization,scene_default_lead,lead_time_target_s,lead_time_measured_s,"
            "worst_whole_area_contrast_db,worst_other_foci_contrast_db,min_peak_m,margin_under_threshold_m,"
-           "all_cross,all_alone,min_peak_per_root_energy,max_drive_energy_n2s,max_out_of_band_fraction,pairs,pairs_failing,"
-           "worst_pair,worst_pair_margin_m,triples,triples_failing,worst_triple,worst_triple_margin_m,max_sound_exposure_dba,"
+           "all_cross,all_alone,min_peak_per_root_energy,max_drive_energy_n2s,max_out_of_band_fraction,pairs,pairs_"
+           "failing,"
+           "worst_pair,worst_pair_margin_m,triples,triples_failing,worst_triple,worst_triple_margin_m,max_sound_"
+           "exposure_dba,"
            "seconds,error\n";
     for (const LatencyRow &x : r.rows) {
         std::string err = x.error;
@@ -214,8 +216,7 @@ std::string write_latency_report(const LatencyResult &r, const std::string &dir)
            << fmt("%+.2f", x.margin_m * 1e6) << " | " << (x.all_cross ? "yes" : "no") << " | "
            << (x.all_alone ? "yes" : "no") << " | " << fmt("%.3g", x.min_peak_per_root_energy * 1e6) << " | "
            << fmt("%.3g", x.max_energy_n2s) << " | " << fmt("%.2f", 100 * x.max_out_of_band) << " | "
-           << (x.pairs ? std::to_string(x.pairs_failing) + " of " + std::to_string(x.pairs) : std::string("-"))
-           << " | "
+           << (x.pairs ? std::to_string(x.pairs_failing) + " of " + std::to_string(x.pairs) : std::string("-")) << " | "
            << (x.pairs ? std::to_string(x.worst_pair[0]) + "+" + std::to_string(x.worst_pair[1]) + ": " +
                              fmt("%+.2f", x.worst_pair_margin_m * 1e6)
                        : std::string("-"))
@@ -232,4 +233,4 @@ std::string write_latency_report(const LatencyResult &r, const std::string &dir)
     return md.str();
 }
 
-}  // namespace calib::study
+} // namespace calib::study

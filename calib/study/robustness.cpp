@@ -38,27 +38,28 @@ RobustnessResult run_robustness_study(const RobustnessOptions &o, const StudyLog
     if (o.seed)
         in.tolerance->seed = *o.seed;
     try {
-        pipeline::check_feasible(in);  // the box included
+        pipeline::check_feasible(in); // the box included
     } catch (const std::invalid_argument &e) {
         throw std::runtime_error(o.scene_path + ": " + e.what());
     }
     r.box = pipeline::resolve_tolerance(in, *in.tolerance);
     r.robust = in.robust.has_value();
     r.foci = in.foci.points.size();
-    const pipeline::CalibrationResult res = pipeline::calibrate(in, [&](const std::string &s, size_t done, size_t total) {
-        if (log && (done == total || s == "tolerance"))
-            log(s + " " + std::to_string(done) + "/" + std::to_string(total));
-    });
+    const pipeline::CalibrationResult res =
+        pipeline::calibrate(in, [&](const std::string &s, size_t done, size_t total) {
+            if (log && (done == total || s == "tolerance"))
+                log(s + " " + std::to_string(done) + "/" + std::to_string(total));
+        });
     if (!res.tolerance)
         throw std::logic_error("calibrate returned no tolerance report");
     r.report = *res.tolerance;
     const pipeline::StageTimes &t = res.times;
     // A single (plain) calibration: its stages without the robust ensemble.
-    r.calibration_s = t.simulation_s + t.search_s + t.transfer_s + t.signals_s + t.verification_s -
-                      r.report.ensemble_seconds;
+    r.calibration_s =
+        t.simulation_s + t.search_s + t.transfer_s + t.signals_s + t.verification_s - r.report.ensemble_seconds;
     for (const pipeline::ToleranceCase &c : r.report.cases)
         (c.perturbation.factor == "combined" ? r.random_s : r.one_at_a_time_s) += c.seconds;
     return r;
 }
 
-}  // namespace calib::study
+} // namespace calib::study

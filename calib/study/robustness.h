@@ -17,7 +17,7 @@ namespace calib::study {
 
 struct RobustnessOptions {
     std::string scene_path, report_dir;
-    std::optional<unsigned> random_cases;  // overrides the box's (default 8)
+    std::optional<unsigned> random_cases; // overrides the box's (default 8)
     std::optional<uint64_t> seed;
     bool quiet = false;
 };
@@ -25,10 +25,10 @@ struct RobustnessOptions {
 struct RobustnessResult {
     std::string scene_name, scene_path;
     pipeline::ResolvedTolerance box;
-    bool default_box = false;            // the scene had no [tolerance]
-    bool robust = false;                 // the table is a robust design (plain design beside it)
+    bool default_box = false; // the scene had no [tolerance]
+    bool robust = false;      // the table is a robust design (plain design beside it)
     pipeline::ToleranceReport report;
-    double calibration_s = 0;            // the calibration alone (its stages)
+    double calibration_s = 0; // the calibration alone (its stages)
     double one_at_a_time_s = 0, random_s = 0;
     std::size_t foci = 0;
 };
@@ -43,4 +43,4 @@ RobustnessResult run_robustness_study(const RobustnessOptions &o, const StudyLog
 // Writes the CSV, the plot and the summary into dir; returns the summary (markdown).
 std::string write_robustness_report(const RobustnessResult &r, const std::string &dir);
 
-}  // namespace calib::study
+} // namespace calib::study

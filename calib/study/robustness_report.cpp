@@ -34,8 +34,8 @@ double exciter_shift_mm(const pipeline::Perturbation &p)
 void csv_figures(std::ostringstream &o, const CaseFigures &c)
 {
     o << ',' << c.worst_whole_area_contrast_db << ',' << c.worst_focus_id << ',' << c.min_peak_m * 1e6 << ','
-      << c.max_peak_m * 1e6 << ',' << c.max_offset_m * 1e3 << ',' << c.max_lead_time_s * 1e3 << ','
-      << c.foci_passing << ',' << c.foci_failing << ',' << c.area_crossings << ',' << c.peak_per_energy;
+      << c.max_peak_m * 1e6 << ',' << c.max_offset_m * 1e3 << ',' << c.max_lead_time_s * 1e3 << ',' << c.foci_passing
+      << ',' << c.foci_failing << ',' << c.area_crossings << ',' << c.peak_per_energy;
 }
 
 const char *figure_columns = "worst_whole_area_contrast_db,worst_focus,min_peak_um,max_peak_um,max_offset_mm,"
@@ -45,7 +45,7 @@ const char *figure_columns = "worst_whole_area_contrast_db,worst_focus,min_peak_
 // contrast at each end of its range, against the nominal plate.
 struct Row {
     std::string factor;
-    std::vector<std::pair<std::string, double>> ends;  // case name, change (dB)
+    std::vector<std::pair<std::string, double>> ends; // case name, change (dB)
     std::vector<unsigned> fails;
     double low = 0, high = 0;
 };
@@ -80,7 +80,7 @@ void draw_tornado(cairo_t *cr, const std::vector<Row> &rows, const RobustnessRes
         lo = std::min(lo, x.low);
         hi = std::max(hi, x.high);
     }
-    const double pad = 0.35 * (hi - lo);  // room for the labels at the bar ends
+    const double pad = 0.35 * (hi - lo); // room for the labels at the bar ends
     lo -= pad;
     hi += pad;
     report::Axis axis("change of the worst-focus whole-area contrast (dB)");
@@ -89,8 +89,9 @@ void draw_tornado(cairo_t *cr, const std::vector<Row> &rows, const RobustnessRes
     cv::set_color(cr, {0, 0, 0});
     cv::text(cr, w / 2.0, 22, "Which tolerance costs most: " + r.scene_name, 16, cv::Anchor::middle);
     cv::text(cr, w / 2.0, 44,
-             "nominal worst-focus whole-area contrast " + fmt("%.2f dB", r.report.nominal.worst_whole_area_contrast_db) +
-                 ", verdict fails at " + std::to_string(r.report.nominal.foci_failing),
+             "nominal worst-focus whole-area contrast " +
+                 fmt("%.2f dB", r.report.nominal.worst_whole_area_contrast_db) + ", verdict fails at " +
+                 std::to_string(r.report.nominal.foci_failing),
              12, cv::Anchor::middle);
     const double bottom = top + row_h * double(rows.size());
     cairo_set_line_width(cr, 1);
@@ -117,7 +118,8 @@ void draw_tornado(cairo_t *cr, const std::vector<Row> &rows, const RobustnessRes
             cv::set_color(cr, {40, 40, 40});
             const bool to_right = d >= 0;
             cv::text(cr, X(d) + (to_right ? 4 : -4), y + bar / 2 - 1,
-                     x.ends[e].first + fmt(" %+.2f dB", d) + (x.fails[e] ? ", " + std::to_string(x.fails[e]) + " fail" : ""),
+                     x.ends[e].first + fmt(" %+.2f dB", d) +
+                         (x.fails[e] ? ", " + std::to_string(x.fails[e]) + " fail" : ""),
                      10, to_right ? cv::Anchor::start : cv::Anchor::end);
         }
     }
@@ -137,7 +139,7 @@ std::string figures_md(const std::string &name, const CaseFigures &c, std::size_
            std::to_string(foci) + " | " + std::to_string(c.area_crossings) + " |\n";
 }
 
-}  // namespace
+} // namespace
 
 std::string write_robustness_report(const RobustnessResult &r, const std::string &dir)
 {
@@ -148,15 +150,16 @@ std::string write_robustness_report(const RobustnessResult &r, const std::string
     const pipeline::ToleranceReport &rep = r.report;
     std::ostringstream csv;
     const bool compensation = r.box.spec.speed_compensation;
-    csv << "case,factor,E_scale,rho_scale,thickness_scale,loss_factor,temperature_k,exciter_shift_mm," << figure_columns;
+    csv << "case,factor,E_scale,rho_scale,thickness_scale,loss_factor,temperature_k,exciter_shift_mm,"
+        << figure_columns;
     auto more_columns = [&](const char *prefix) {
         std::istringstream cols(figure_columns);
         for (std::string col; std::getline(cols, col, ',');)
             csv << ',' << prefix << col;
     };
-    if (r.robust)  // the plain design's figures beside the robust table's
+    if (r.robust) // the plain design's figures beside the robust table's
         more_columns("plain_");
-    if (compensation) {  // as the device plays each plate: stretched by its speed ratio (empty where it is 1)
+    if (compensation) { // as the device plays each plate: stretched by its speed ratio (empty where it is 1)
         csv << ",speed_ratio";
         more_columns("compensated_");
         if (r.robust)
@@ -214,9 +217,9 @@ std::string write_robustness_report(const RobustnessResult &r, const std::string
        << " (nominal " << fmt("%.4f", r.box.nominal_loss) << ")";
     for (double s : b.loss_scale)
         md << ", loss x" << fmt("%g", s);
-    md << ", exciters " << fmt("%g mm", b.exciter_position_m * 1e3) << ", temperature " << fmt("+-%g K", b.temperature_k)
-       << " at dE/E/dT = " << fmt("%g", r.box.youngs_per_kelvin) << " /K, " << b.random_cases
-       << " random combinations (seed " << b.seed << ").\n\n";
+    md << ", exciters " << fmt("%g mm", b.exciter_position_m * 1e3) << ", temperature "
+       << fmt("+-%g K", b.temperature_k) << " at dE/E/dT = " << fmt("%g", r.box.youngs_per_kelvin) << " /K, "
+       << b.random_cases << " random combinations (seed " << b.seed << ").\n\n";
     md << "| plate | worst-focus whole-area contrast (dB) | peak (um) | perceived offset (mm) | lead (ms) | "
           "foci passing the verdict | foci whose area beyond lambda/2 crosses |\n|---|---|---|---|---|---|---|\n";
     md << figures_md("nominal", rep.nominal, r.foci);
@@ -245,21 +248,23 @@ std::string write_robustness_report(const RobustnessResult &r, const std::string
     for (const Row &x : rows) {
         md << "- " << x.factor << ":";
         for (std::size_t e = 0; e < x.ends.size(); e++)
-            md << (e ? "," : "") << " " << x.ends[e].first << fmt(" %+.2f dB", x.ends[e].second) << " ("
-               << x.fails[e] << " failing the verdict)";
+            md << (e ? "," : "") << " " << x.ends[e].first << fmt(" %+.2f dB", x.ends[e].second) << " (" << x.fails[e]
+               << " failing the verdict)";
         md << "\n";
     }
     std::size_t rescaled = 0;
     for (const ToleranceCase &c : rep.cases)
         rescaled += c.rescaled;
     md << "\nTransfer matrices: " << rep.cases.size() - rescaled << " plates simulated (one simulation per exciter), "
-       << rescaled << " rescaled from the nominal H (E, rho, thickness, temperature: exact for the scheme, "
+       << rescaled
+       << " rescaled from the nominal H (E, rho, thickness, temperature: exact for the scheme, "
           "docs/robustness.md).\n";
     md << "\nCost: the calibration " << fmt("%.1f s", r.calibration_s) << "; the one-at-a-time cases "
        << fmt("%.1f s", r.one_at_a_time_s) << " (" << fmt("%.2fx", r.one_at_a_time_s / r.calibration_s)
        << " the calibration), the random combinations " << fmt("%.1f s", r.random_s);
     if (r.robust)
-        md << "; the robust ensemble (" << rep.ensemble.size() << " member plates) " << fmt("%.1f s", rep.ensemble_seconds);
+        md << "; the robust ensemble (" << rep.ensemble.size() << " member plates) "
+           << fmt("%.1f s", rep.ensemble_seconds);
     md << ".\n";
     if (r.robust && rep.nominal_design)
         md << "\nPeak per drive energy (mean over foci, m / (N s^0.5)) on the nominal plate: robust "
@@ -271,4 +276,4 @@ std::string write_robustness_report(const RobustnessResult &r, const std::string
     return text;
 }
 
-}  // namespace calib::study
+} // namespace calib::study

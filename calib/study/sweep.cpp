@@ -16,8 +16,8 @@ namespace {
 struct AxisInfo {
     AxisKind kind;
     const char *name;
-    const char *section;  // scene table
-    const char *key;      // scene key
+    const char *section; // scene table
+    const char *key;     // scene key
     enum { integer, number, string, edges } type;
 };
 
@@ -40,10 +40,7 @@ const AxisInfo &info(AxisKind k)
     throw std::logic_error("sweep: axis without an entry");
 }
 
-const char *type_name(const toml::node &n)
-{
-    return toml::impl::node_type_friendly_names[unsigned(n.type())].data();
-}
+const char *type_name(const toml::node &n) { return toml::impl::node_type_friendly_names[unsigned(n.type())].data(); }
 
 // A scene stays far below this many cases in any sane study; the bound keeps
 // a typo ("to = 1e9") from allocating forever.
@@ -73,8 +70,8 @@ toml::array expand_range(const scene::Fields &r, const AxisInfo &a)
     if (!(step > 0))
         r.fail("step", "must be > 0, got " + scene::format_number(step));
     if (to < from)
-        r.fail("to", "empty range: to (" + scene::format_number(to) + ") is below from (" +
-                         scene::format_number(from) + ")");
+        r.fail("to",
+               "empty range: to (" + scene::format_number(to) + ") is below from (" + scene::format_number(from) + ")");
     const double n = std::floor((to - from) / step + 1e-6) + 1;
     if (n > max_range_values)
         r.fail("step", "range of " + scene::format_number(n) + " values (at most " +
@@ -111,10 +108,18 @@ toml::array axis_values(const toml::node &node, const std::string &file, const A
             const std::string at = "value " + std::to_string(i + 1) + " ";
             bool ok = false;
             switch (a.type) {
-            case AxisInfo::integer: ok = v.is_integer(); break;
-            case AxisInfo::number: ok = v.is_integer() || v.is_floating_point(); break;
-            case AxisInfo::string: ok = v.is_string(); break;
-            case AxisInfo::edges: ok = v.is_string() || v.is_table(); break;
+            case AxisInfo::integer:
+                ok = v.is_integer();
+                break;
+            case AxisInfo::number:
+                ok = v.is_integer() || v.is_floating_point();
+                break;
+            case AxisInfo::string:
+                ok = v.is_string();
+                break;
+            case AxisInfo::edges:
+                ok = v.is_string() || v.is_table();
+                break;
             }
             if (!ok) {
                 static const char *wanted[] = {"an integer", "a number", "a string",
@@ -167,7 +172,7 @@ std::string read_file(const std::string &path, const std::string &what)
     return std::move(*bytes);
 }
 
-}  // namespace
+} // namespace
 
 std::string known_axis_names()
 {
@@ -237,8 +242,8 @@ Sweep parse_sweep(std::string_view text, const std::string &file, std::size_t ma
                     if (k.str() == x.name)
                         a = &x;
                 if (!a)
-                    throw SweepError(file + ": axes." + std::string(k.str()) + ": unknown axis (known: " +
-                                     known_axis_names() + ")");
+                    throw SweepError(file + ": axes." + std::string(k.str()) +
+                                     ": unknown axis (known: " + known_axis_names() + ")");
                 s.axes.push_back({a->kind, a->name, axis_values(v, file, *a)});
             }
             // toml++ tables are ordered by key; keep the file's order instead,
@@ -268,14 +273,14 @@ Sweep parse_sweep(std::string_view text, const std::string &file, std::size_t ma
     for (const Axis &a : s.axes)
         n *= double(a.values.size());
     if (n > double(max_cases))
-        throw SweepError(file + ": axes: " + scene::format_number(n) + " cases (at most " +
-                         std::to_string(max_cases) + ")");
+        throw SweepError(file + ": axes: " + scene::format_number(n) + " cases (at most " + std::to_string(max_cases) +
+                         ")");
     s.base_text = read_file(s.base_path, file + ": base");
     try {
         (void)toml::parse(s.base_text, s.base_path);
     } catch (const toml::parse_error &e) {
-        throw SweepError(s.base_path + ":" + std::to_string(e.source().begin.line) + ": TOML syntax error: " +
-                         std::string(e.description()));
+        throw SweepError(s.base_path + ":" + std::to_string(e.source().begin.line) +
+                         ": TOML syntax error: " + std::string(e.description()));
     }
     return s;
 }
@@ -296,7 +301,7 @@ void merge(toml::table &into, const toml::table &from)
     }
 }
 
-}  // namespace
+} // namespace
 
 std::vector<Case> enumerate_cases(const Sweep &s)
 {
@@ -322,8 +327,8 @@ std::vector<Case> enumerate_cases(const Sweep &s)
                 t.insert(ai.section, toml::table{});
             toml::table *sec = t[ai.section].as_table();
             if (!sec)
-                throw SweepError(s.base_path + ": " + ai.section + ": must be a table (the sweep sets " +
-                                 ai.section + "." + ai.key + ")");
+                throw SweepError(s.base_path + ": " + ai.section + ": must be a table (the sweep sets " + ai.section +
+                                 "." + ai.key + ")");
             // A swept edge condition or material replaces the base's, whatever its form.
             v.visit([&](const auto &x) { sec->insert_or_assign(ai.key, x); });
             c.values.push_back(value_text(v));
@@ -336,4 +341,4 @@ std::vector<Case> enumerate_cases(const Sweep &s)
     return cases;
 }
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -20,26 +20,26 @@ namespace calib::study {
 
 // One line: "<file>: <key>: <what is wrong>".
 class SweepError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
 // What an axis varies. Each maps onto one scene key.
 enum class AxisKind {
-    exciter_count,        // exciters.count (integer)
-    material,             // plate.material (a built-in name)
-    thickness_m,          // plate.thickness_m
-    pulse_centre_hz,      // pulse.centre_hz
-    pulse_cycles,         // pulse.cycles
-    edges,                // plate.edges ("clamped", ... or {left, right, bottom, top})
-    placement_criterion,  // exciters.criterion
-    seed,                 // exciters.seed (integer)
+    exciter_count,       // exciters.count (integer)
+    material,            // plate.material (a built-in name)
+    thickness_m,         // plate.thickness_m
+    pulse_centre_hz,     // pulse.centre_hz
+    pulse_cycles,        // pulse.cycles
+    edges,               // plate.edges ("clamped", ... or {left, right, bottom, top})
+    placement_criterion, // exciters.criterion
+    seed,                // exciters.seed (integer)
 };
 
 struct Axis {
     AxisKind kind;
-    std::string name;                 // the key in [axes]
-    toml::array values;               // each value as the case scene gets it
+    std::string name;   // the key in [axes]
+    toml::array values; // each value as the case scene gets it
 };
 
 // Limits the summary applies when it names the best case (all optional).
@@ -52,17 +52,17 @@ struct Constraints {
 
 struct Case {
     std::size_t index = 0;
-    std::string id;          // 16 hex digits: FNV-1a 64 of scene_text
-    std::string scene_text;  // the base scene with this case's keys set (TOML)
-    std::vector<std::string> values;  // per axis, as written in the sweep (for progress lines)
+    std::string id;                  // 16 hex digits: FNV-1a 64 of scene_text
+    std::string scene_text;          // the base scene with this case's keys set (TOML)
+    std::vector<std::string> values; // per axis, as written in the sweep (for progress lines)
 };
 
 struct Sweep {
-    std::string file;        // as given, for messages
-    std::string base_path;   // resolved against the sweep file's folder
+    std::string file;      // as given, for messages
+    std::string base_path; // resolved against the sweep file's folder
     std::string base_text;
-    std::string name;        // [study] name, default: the sweep file's stem
-    toml::table set;         // [set]: scene keys every case gets (axes override them)
+    std::string name; // [study] name, default: the sweep file's stem
+    toml::table set;  // [set]: scene keys every case gets (axes override them)
     std::vector<Axis> axes;
     Constraints constraints;
     std::size_t case_count() const;
@@ -83,4 +83,4 @@ std::string known_axis_names();
 // FNV-1a 64 of the bytes, as 16 lower-case hex digits.
 std::string fnv1a_hex(std::string_view bytes);
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -23,13 +23,13 @@ using RunCase = std::function<std::string(std::size_t index)>;
 using StoreCase = std::function<void(std::size_t index, const std::string &record)>;
 
 class Workers {
-public:
+  public:
     virtual ~Workers() = default;
     virtual int rank() const = 0;
     virtual int size() const = 0;
     // Ranks on this machine (cores are shared among them).
     virtual int local_size() const = 0;
-    virtual const char *kind() const = 0;  // "local" or "MPI"
+    virtual const char *kind() const = 0; // "local" or "MPI"
     // Every rank calls this; `todo` is read on rank 0 only. Returns on every
     // rank once every case in `todo` is stored.
     virtual void run(const std::vector<std::size_t> &todo, const RunCase &run, const StoreCase &store) = 0;
@@ -46,4 +46,4 @@ std::unique_ptr<Workers> start_workers();
 // The MPI workers (workers_mpi.cpp, built with HAPTIC_MPI only).
 std::unique_ptr<Workers> start_mpi_workers();
 
-}  // namespace calib::study
+} // namespace calib::study

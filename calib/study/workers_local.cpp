@@ -10,7 +10,7 @@ namespace calib::study {
 namespace {
 
 class LocalWorkers final : public Workers {
-public:
+  public:
     int rank() const override { return 0; }
     int size() const override { return 1; }
     int local_size() const override { return 1; }
@@ -28,7 +28,7 @@ public:
     return v ? std::atoi(v) : 0;
 }
 
-}  // namespace
+} // namespace
 
 bool launched_by_mpi()
 {
@@ -52,4 +52,4 @@ std::unique_ptr<Workers> start_workers()
 #endif
 }
 
-}  // namespace calib::study
+} // namespace calib::study

@@ -38,7 +38,7 @@ void check(int rc, const char *what)
 }
 
 class MpiWorkers final : public Workers {
-public:
+  public:
     MpiWorkers()
     {
         int provided = 0;
@@ -77,7 +77,7 @@ public:
         wait_for_all();
     }
 
-private:
+  private:
     void hand_out(const std::vector<std::size_t> &todo, const RunCase &run, const StoreCase &store)
     {
         std::mutex m;
@@ -182,8 +182,8 @@ private:
     int rank_ = 0, size_ = 1, local_size_ = 1;
 };
 
-}  // namespace
+} // namespace
 
 std::unique_ptr<Workers> start_mpi_workers() { return std::make_unique<MpiWorkers>(); }
 
-}  // namespace calib::study
+} // namespace calib::study

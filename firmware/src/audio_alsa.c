@@ -96,8 +96,8 @@ int hd_audio_open(struct hd_audio *a, const struct hd_board *b, const char *devi
     a->frame_bytes = (size_t)b->channels * (b->format == HD_FMT_S16_LE ? 2 : 4);
     int rc;
     if (b->alsa_config[0] && (rc = load_config(b->alsa_config, &a->lconf)) < 0) {
-        snprintf(err, HD_ERR_MAX, "%s: [alsa] config '%s': cannot load ALSA configuration: %s", b->path,
-                 b->alsa_config, snd_strerror(rc));
+        snprintf(err, HD_ERR_MAX, "%s: [alsa] config '%s': cannot load ALSA configuration: %s", b->path, b->alsa_config,
+                 snd_strerror(rc));
         return rc;
     }
     /* Opened non-blocking: a device another process holds is refused with
@@ -210,10 +210,7 @@ void hd_audio_configure(struct hd_audio *a, int rewind, snd_pcm_uframes_t margin
     a->clock_paced = clock_paced;
 }
 
-static int transient(long err)
-{
-    return err == -EPIPE || err == -ESTRPIPE || err == -EAGAIN || err == -EINTR;
-}
+static int transient(long err) { return err == -EPIPE || err == -ESTRPIPE || err == -EAGAIN || err == -EINTR; }
 
 static void rewind_disable(struct hd_audio *a, long err)
 {
@@ -326,8 +323,8 @@ void hd_audio_close(struct hd_audio *a, int drain)
 /* ---- libasound's messages ---- */
 
 static char lib_first[512];
-static atomic_ulong lib_count;   /* messages since the last take */
-static atomic_int lib_slot;      /* 0 free, 1 being written, 2 holds the first message */
+static atomic_ulong lib_count; /* messages since the last take */
+static atomic_int lib_slot;    /* 0 free, 1 being written, 2 holds the first message */
 
 static void lib_message(const char *file, int line, const char *function, int err, const char *fmt, ...)
 {

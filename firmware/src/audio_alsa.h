@@ -14,24 +14,24 @@
 
 struct hd_audio {
     snd_pcm_t *pcm;
-    snd_config_t *lconf;              /* local config from [alsa] config, or NULL */
+    snd_config_t *lconf; /* local config from [alsa] config, or NULL */
     uint32_t channels, rate_hz;
-    snd_pcm_uframes_t period_frames, buffer_frames;  /* as granted by the device */
+    snd_pcm_uframes_t period_frames, buffer_frames; /* as granted by the device */
     size_t frame_bytes;
     void *silence;                    /* one period of zeros */
     uint64_t xruns, suspends, errors; /* written by the audio thread only */
     /* Rewinding queued frames (a trigger answered at once). */
-    int rewind;                       /* 1: enabled; 0: off by the board, or disabled after an error */
-    int rewind_error;                 /* the error that disabled it (negative errno), 0 if none */
-    snd_pcm_uframes_t rewind_margin;  /* queued frames never rewound: the device may be reading them */
-    int batch;                        /* the driver reports its position per period (hw_params_is_batch) */
+    int rewind;                      /* 1: enabled; 0: off by the board, or disabled after an error */
+    int rewind_error;                /* the error that disabled it (negative errno), 0 if none */
+    snd_pcm_uframes_t rewind_margin; /* queued frames never rewound: the device may be reading them */
+    int batch;                       /* the driver reports its position per period (hw_params_is_batch) */
     /* Clock pacing (file/null plugins never block nor advance a hardware
      * pointer): a device is emulated that starts playing the pre-fill at
      * start_ns and plays rate_hz frames per second; it limits the rewinds
      * to the frames it has not played yet and says when a period is due. */
     int clock_paced;
-    uint64_t start_ns;                /* CLOCK_MONOTONIC when the pre-fill started playing */
-    uint64_t written;                 /* frames written since the last pre-fill, the pre-fill included */
+    uint64_t start_ns; /* CLOCK_MONOTONIC when the pre-fill started playing */
+    uint64_t written;  /* frames written since the last pre-fill, the pre-fill included */
 };
 
 /* Open `device` (or the board's [alsa] device when NULL), through the board's
@@ -109,7 +109,7 @@ unsigned long hd_audio_lib_messages_take(char *first, size_t cap);
 enum hd_audio_verdict { HD_AUDIO_OK = 0, HD_AUDIO_FAILING, HD_AUDIO_GAVE_UP, HD_AUDIO_UNPACED };
 
 struct hd_audio_health {
-    uint64_t stretch_start_ns;   /* first error of the current failing stretch; 0: none */
+    uint64_t stretch_start_ns; /* first error of the current failing stretch; 0: none */
     uint64_t last_error_ns;
 };
 

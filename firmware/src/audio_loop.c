@@ -129,8 +129,7 @@ void *hd_audio_loop_run(void *arg)
     return NULL;
 }
 
-int hd_audio_loop_script(struct hd_audio_loop *l, const struct hd_script *s, unsigned tail_frames,
-                         const char *device)
+int hd_audio_loop_script(struct hd_audio_loop *l, const struct hd_script *s, unsigned tail_frames, const char *device)
 {
     struct hd_engine *e = l->engine;
     long primed = hd_audio_prime(l->audio);
@@ -154,14 +153,16 @@ int hd_audio_loop_script(struct hd_audio_loop *l, const struct hd_script *s, uns
         int err = audio_step(l);
         if (err < 0) {
             /* Unpaced runs feed files and tests: the first failure ends the run. */
-            hd_log(LOG_ERR, "writing to ALSA device '%s' failed at frame %llu: %s (host-sim: does the WAV's folder exist?)",
+            hd_log(LOG_ERR,
+                   "writing to ALSA device '%s' failed at frame %llu: %s (host-sim: does the WAV's folder exist?)",
                    device, (unsigned long long)hd_engine_frame(e), snd_strerror(err));
             rc = 1;
             break;
         }
     }
-    hd_log(LOG_INFO, "script done: %llu frames written, %llu voices (%llu lowered, %llu skipped by the exciters' "
-                     "ratings)",
+    hd_log(LOG_INFO,
+           "script done: %llu frames written, %llu voices (%llu lowered, %llu skipped by the exciters' "
+           "ratings)",
            (unsigned long long)hd_engine_frame(e), (unsigned long long)atomic_load(&e->stats.voices_started),
            (unsigned long long)atomic_load(&e->stats.voices_attenuated),
            (unsigned long long)atomic_load(&e->stats.voices_skipped));

@@ -19,13 +19,13 @@ struct hd_audio_loop {
     struct hd_engine *engine;
     struct hd_audio *audio;
     int clock_paced;
-    int trigger_efd;          /* trigger thread -> audio thread: "an event is in the ring" */
-    int timer_fd;             /* clock pacing: the emulated device's period deadline */
+    int trigger_efd;                           /* trigger thread -> audio thread: "an event is in the ring" */
+    int timer_fd;                              /* clock pacing: the emulated device's period deadline */
     struct pollfd alsa_pfd[HD_AUDIO_MAX_PFDS]; /* device pacing */
     int alsa_pfd_count;
-    void *render_buf;         /* one period in the device format */
+    void *render_buf; /* one period in the device format */
     atomic_int running;
-    atomic_int failed;        /* the device failed (an enum hd_audio_verdict: GAVE_UP, UNPACED); the thread ended */
+    atomic_int failed; /* the device failed (an enum hd_audio_verdict: GAVE_UP, UNPACED); the thread ended */
 };
 
 /* pthread entry point; arg is a struct hd_audio_loop. Runs while `running`. */
@@ -35,7 +35,6 @@ void *hd_audio_loop_run(void *arg);
  * pre-fill included); an event stamped F starts at the first period boundary
  * >= F that is still to be written. Runs until every event has played and
  * tail_frames more. `device` names the PCM in messages. Returns 0 or 1. */
-int hd_audio_loop_script(struct hd_audio_loop *l, const struct hd_script *s, unsigned tail_frames,
-                         const char *device);
+int hd_audio_loop_script(struct hd_audio_loop *l, const struct hd_script *s, unsigned tail_frames, const char *device);
 
 #endif

@@ -24,10 +24,10 @@
 
 struct parse_ctx {
     struct hd_board *b;
-    char dir[HD_PATH_MAX];     /* folder of the board file, for relative paths */
-    char msg[HD_ERR_MAX];      /* first error: "[section] key: ..." */
+    char dir[HD_PATH_MAX]; /* folder of the board file, for relative paths */
+    char msg[HD_ERR_MAX];  /* first error: "[section] key: ..." */
     bool failed;
-    uint32_t seen_lines;       /* which b->lines[] came from a section */
+    uint32_t seen_lines; /* which b->lines[] came from a section */
 };
 
 void hd_board_defaults(struct hd_board *b)
@@ -148,14 +148,14 @@ static int copy_path(struct parse_ctx *c, const char *sec, const char *key, char
     return 1;
 }
 
-#define UINT_KEY(field, lo, hi)                                                                         \
-    do {                                                                                                \
-        unsigned long v_;                                                                               \
-        if (parse_uint(value, (lo), (hi), &v_))                                                         \
-            return bad(c, section, name, "'%s' is not an integer in %lu..%lu", value,                  \
-                       (unsigned long)(lo), (unsigned long)(hi));                                       \
-        (field) = (unsigned)v_;                                                                         \
-        return 1;                                                                                       \
+#define UINT_KEY(field, lo, hi)                                                                                        \
+    do {                                                                                                               \
+        unsigned long v_;                                                                                              \
+        if (parse_uint(value, (lo), (hi), &v_))                                                                        \
+            return bad(c, section, name, "'%s' is not an integer in %lu..%lu", value, (unsigned long)(lo),             \
+                       (unsigned long)(hi));                                                                           \
+        (field) = (unsigned)v_;                                                                                        \
+        return 1;                                                                                                      \
     } while (0)
 
 static int alsa_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
@@ -467,8 +467,7 @@ static int cross_check(struct parse_ctx *c)
     if (!b->alsa_device[0])
         return bad(c, "alsa", "device", "missing (required)");
     if (b->map_count > b->channels)
-        return bad(c, "alsa", "channel_map", "%u entries but the device has %u channels", b->map_count,
-                   b->channels);
+        return bad(c, "alsa", "channel_map", "%u entries but the device has %u channels", b->map_count, b->channels);
     for (unsigned i = 0; i < b->map_count; i++) {
         if (b->channel_map[i] >= b->channels)
             return bad(c, "alsa", "channel_map", "entry %u is ALSA channel %u, the device has 0..%u", i,
@@ -502,7 +501,8 @@ static int cross_check(struct parse_ctx *c)
                 plate[2 * k + 1] = t->calib[k][3];
             }
             if (hd_touch_map_from_points(panel, plate, &m))
-                return bad(c, "touch", "calib_3", "the three points give no finite map (collinear panel points, or a plate beyond range)");
+                return bad(c, "touch", "calib_3",
+                           "the three points give no finite map (collinear panel points, or a plate beyond range)");
         }
     }
     if (b->line_count > 0 && !b->gpio_chip[0])
@@ -514,7 +514,8 @@ static int cross_check(struct parse_ctx *c)
         if (!e->impedance_count)
             return bad(c, "exciters", "impedance_ohm", "missing (the exciters' nominal impedance, ohm)");
         if (!(b->amp_full_scale_v > 0))
-            return bad(c, "amplifier", "full_scale_v", "missing: [exciters] needs the amplifier's output at full scale");
+            return bad(c, "amplifier", "full_scale_v",
+                       "missing: [exciters] needs the amplifier's output at full scale");
         const unsigned counts[] = {e->power_count, e->impedance_count, e->tau_count};
         const char *keys[] = {"rated_power_w", "impedance_ohm", "thermal_tau_s"};
         for (int k = 0; k < 3; k++)
@@ -635,7 +636,9 @@ int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX])
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
         close(fd);
         snprintf(err, HD_ERR_MAX, "%s: not a regular file (a %s is no board file)", path,
-                 S_ISDIR(st.st_mode) ? "directory" : S_ISFIFO(st.st_mode) ? "FIFO" : "device or socket");
+                 S_ISDIR(st.st_mode)    ? "directory"
+                 : S_ISFIFO(st.st_mode) ? "FIFO"
+                                        : "device or socket");
         return -EINVAL;
     }
     /* Read whole, bounded before allocating: a board file is a page of text. */

@@ -12,21 +12,20 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-
 enum hd_sample_format { HD_FMT_S16_LE = 1, HD_FMT_S32_LE = 2 };
 enum hd_bias { HD_BIAS_AS_IS = 0, HD_BIAS_DISABLE, HD_BIAS_PULL_UP, HD_BIAS_PULL_DOWN };
 enum hd_pacing { HD_PACE_DEVICE = 0, HD_PACE_CLOCK };
 
 struct hd_line {
-    unsigned offset;               /* GPIO line offset on the chip */
-    bool active_low;               /* touch pulls the line low: the press edge is falling */
+    unsigned offset; /* GPIO line offset on the chip */
+    bool active_low; /* touch pulls the line low: the press edge is falling */
     enum hd_bias bias;
     unsigned focus_count;
     uint32_t focus_ids[HD_MAX_EVENT_FOCI]; /* table focus ids this line plays */
 };
 
 struct hd_board {
-    char path[HD_PATH_MAX];        /* the board file itself (for messages) */
+    char path[HD_PATH_MAX]; /* the board file itself (for messages) */
     /* [alsa] */
     char alsa_device[256];
     char alsa_config[HD_PATH_MAX]; /* optional local ALSA config (host-sim), "" if none */
@@ -35,58 +34,58 @@ struct hd_board {
     unsigned rate_hz;
     unsigned period_frames;
     unsigned periods;
-    unsigned map_count;            /* = table channel count the board expects */
+    unsigned map_count;                    /* = table channel count the board expects */
     unsigned channel_map[HD_MAX_CHANNELS]; /* exciter (table channel) -> ALSA channel */
     enum hd_pacing pacing;
     bool rewind;                   /* start a trigger at once by rewinding the queued frames */
     unsigned rewind_margin_frames; /* queued frames never rewound: the device may be reading them */
     /* [gpio] */
-    char gpio_chip[64];            /* "" when the board has no GPIO triggers */
+    char gpio_chip[64]; /* "" when the board has no GPIO triggers */
     unsigned lockout_ms;
     unsigned line_count;
     struct hd_line lines[HD_MAX_LINES];
     /* [touch] */
     struct hd_touch_board {
-        bool enabled;                  /* the section is present */
-        char device[HD_PATH_MAX];      /* evdev node, or "" */
-        char name[128];                /* or: match this in the device name, "" */
+        bool enabled;             /* the section is present */
+        char device[HD_PATH_MAX]; /* evdev node, or "" */
+        char name[128];           /* or: match this in the device name, "" */
         bool has_area;
-        double area_m[4];              /* x0, y0, x1, y1 */
-        unsigned calib_set;            /* bit k: calib_{k+1} given */
-        double calib[3][4];            /* panel_x, panel_y, plate_x_m, plate_y_m */
+        double area_m[4];   /* x0, y0, x1, y1 */
+        unsigned calib_set; /* bit k: calib_{k+1} given */
+        double calib[3][4]; /* panel_x, panel_y, plate_x_m, plate_y_m */
         double max_distance_m;
         double hysteresis_m;
     } touch;
     /* [mixer] */
-    double gain_limit;             /* upper bound of the mix gain g (1 = table full scale) */
-    unsigned max_foci;             /* foci one voice plays at most: touches beyond it follow foci_policy */
+    double gain_limit; /* upper bound of the mix gain g (1 = table full scale) */
+    unsigned max_foci; /* foci one voice plays at most: touches beyond it follow foci_policy */
     enum hd_foci_policy { HD_FOCI_NEWEST = 0, HD_FOCI_FIRST } foci_policy;
     /* [exciters] and [amplifier]: the ratings hapticd enforces (protect.h);
      * per exciter in the table's channel order, one value meaning all */
     struct hd_exciters_board {
-        bool enabled;              /* [exciters] is present */
+        bool enabled; /* [exciters] is present */
         unsigned power_count, impedance_count, tau_count;
         double rated_power_w[HD_MAX_CHANNELS];
         double impedance_ohm[HD_MAX_CHANNELS];
         double tau_s[HD_MAX_CHANNELS];
     } exciters;
-    double amp_full_scale_v;       /* [amplifier] full_scale_v: peak volts at digital full scale; 0 if not given */
+    double amp_full_scale_v; /* [amplifier] full_scale_v: peak volts at digital full scale; 0 if not given */
     /* [control] */
     char intensity_file[HD_PATH_MAX]; /* the user's intensity in dB (control.h), "" if none */
     /* [panel]: the panel the table plays on, against the plate it was
      * calibrated for (speed compensation, panel.h) */
     struct hd_panel_board {
-        double speed_ratio;        /* how many times faster its response runs than the calibrated plate's, at
+        double speed_ratio;                  /* how many times faster its response runs than the calibrated plate's, at
                                       the calibration temperature: a measured resonance over the same one of
                                       the calibrated plate (not a wave-speed ratio: that is its square root) */
         char temperature_input[HD_PATH_MAX]; /* file with its temperature in millidegrees C, "" if none */
-        double temperature_poll_s; /* how often that file is read */
-        double temperature_step_k; /* the drives are stretched again when it moved this much */
+        double temperature_poll_s;           /* how often that file is read */
+        double temperature_step_k;           /* the drives are stretched again when it moved this much */
     } panel;
     /* [table] */
-    char table_path[HD_PATH_MAX];  /* "" if none (then --table is required) */
+    char table_path[HD_PATH_MAX]; /* "" if none (then --table is required) */
     /* [realtime] */
-    int rt_priority;               /* SCHED_FIFO priority of the audio thread, 0 = do not ask */
+    int rt_priority; /* SCHED_FIFO priority of the audio thread, 0 = do not ask */
     bool mlock;
 };
 

@@ -29,7 +29,7 @@
 
 struct hd_control {
     char path[HD_PATH_MAX];
-    int seen;                 /* a state below was taken */
+    int seen; /* a state below was taken */
     int64_t mtime_ns;
     off_t size;
     ino_t ino;

@@ -55,10 +55,7 @@ int hd_engine_offer(struct hd_engine *e, struct hd_program *p)
     return 0;
 }
 
-void hd_engine_collect(struct hd_engine *e)
-{
-    hd_program_free(atomic_exchange(&e->retired, NULL));
-}
+void hd_engine_collect(struct hd_engine *e) { hd_program_free(atomic_exchange(&e->retired, NULL)); }
 
 static void swap_programs(struct hd_engine *e)
 {
@@ -133,15 +130,9 @@ void hd_engine_start_at(struct hd_engine *e, uint64_t frame, uint32_t rewind_win
     hd_player_set_timeline(&e->player, frame, rewind_window);
 }
 
-uint64_t hd_engine_frame(const struct hd_engine *e)
-{
-    return e->player.frame;
-}
+uint64_t hd_engine_frame(const struct hd_engine *e) { return e->player.frame; }
 
-uint64_t hd_engine_rewindable(const struct hd_engine *e)
-{
-    return hd_player_rewindable(&e->player);
-}
+uint64_t hd_engine_rewindable(const struct hd_engine *e) { return hd_player_rewindable(&e->player); }
 
 void hd_engine_rewind(struct hd_engine *e, uint64_t frames)
 {
@@ -150,10 +141,7 @@ void hd_engine_rewind(struct hd_engine *e, uint64_t frames)
     atomic_fetch_add_explicit(&e->stats.rewound_frames, n, memory_order_relaxed);
 }
 
-int hd_engine_pending(struct hd_engine *e)
-{
-    return !hd_spsc_empty(&e->ring);
-}
+int hd_engine_pending(struct hd_engine *e) { return !hd_spsc_empty(&e->ring); }
 
 bool hd_engine_idle(struct hd_engine *e)
 {

@@ -28,9 +28,9 @@ struct hd_engine_stats {
     _Atomic uint64_t voices_attenuated, voices_skipped; /* by the exciters' ratings (protect.h) */
     _Atomic uint64_t policy_foci;                       /* left out by [mixer] max_foci */
     _Atomic uint64_t xruns, write_errors, periods;
-    _Atomic uint64_t rewinds, rewound_frames;  /* triggers started at once, and the frames rendered again */
-    _Atomic int rewind_error;                  /* the ALSA error that disabled rewinding, 0 if none */
-    _Atomic uint32_t active_voices;            /* voices with frames still to render, after the last render */
+    _Atomic uint64_t rewinds, rewound_frames; /* triggers started at once, and the frames rendered again */
+    _Atomic int rewind_error;                 /* the ALSA error that disabled rewinding, 0 if none */
+    _Atomic uint32_t active_voices;           /* voices with frames still to render, after the last render */
 };
 
 struct hd_engine {
@@ -38,11 +38,11 @@ struct hd_engine {
     struct hd_spsc ring;
     _Atomic(struct hd_program *) next;
     _Atomic(struct hd_program *) retired;
-    struct hd_program *current, *previous;   /* audio thread only */
+    struct hd_program *current, *previous; /* audio thread only */
     /* events started in the period being written, for the latency record */
     uint32_t started_count;
     uint64_t started_t_ns[HD_RING_SIZE];
-    uint32_t *latency_ns;                    /* NULL: not recorded */
+    uint32_t *latency_ns; /* NULL: not recorded */
     _Atomic uint32_t latency_count;
     struct hd_engine_stats stats;
 };

@@ -11,8 +11,8 @@
 #include <stdint.h>
 
 struct hd_event {
-    uint64_t t_ns;                 /* CLOCK_MONOTONIC when the daemon saw it (latency stats) */
-    int64_t frame;                 /* scripted start frame, or -1 for "as soon as possible" */
+    uint64_t t_ns; /* CLOCK_MONOTONIC when the daemon saw it (latency stats) */
+    int64_t frame; /* scripted start frame, or -1 for "as soon as possible" */
     uint32_t focus_count;
     uint32_t focus_ids[HD_MAX_EVENT_FOCI];
 };

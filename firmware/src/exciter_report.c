@@ -37,8 +37,9 @@ int hd_exciter_report(const struct hd_program *p, const struct hd_board *b, cons
                  board_path);
         return -EINVAL;
     }
-    fprintf(out, "exciters     %s: amplifier %.3g V at full scale; per focus, on its busiest exciter: one touch's "
-                 "energy, the heat it adds, and the touches a second its rating sustains\n",
+    fprintf(out,
+            "exciters     %s: amplifier %.3g V at full scale; per focus, on its busiest exciter: one touch's "
+            "energy, the heat it adds, and the touches a second its rating sustains\n",
             board_path, b->amp_full_scale_v);
     double fewest = INFINITY;
     uint32_t fewest_id = 0;
@@ -47,7 +48,8 @@ int hd_exciter_report(const struct hd_program *p, const struct hd_board *b, cons
         haptic_table_focus(&p->table, f, &info);
         struct hd_voice_cost cost;
         const uint32_t c = busiest(&pr, p, f, 1.0, &cost);
-        fprintf(out, "  focus %u: exciter %u (%.3g W rated, tau %.3g s): %.4g mJ a touch, heat +%.4g mW, %.4g touches/s",
+        fprintf(out,
+                "  focus %u: exciter %u (%.3g W rated, tau %.3g s): %.4g mJ a touch, heat +%.4g mW, %.4g touches/s",
                 info.id, c, rating[c].rated_power_w, rating[c].tau_s, 1e3 * cost.joules, 1e3 * cost.heat_step_w,
                 cost.sustained_hz);
         if (cost.heat_step_w > rating[c].rated_power_w)
@@ -67,8 +69,9 @@ int hd_exciter_report(const struct hd_program *p, const struct hd_board *b, cons
         }
         fputc('\n', out);
     }
-    fprintf(out, "  the busiest focus (%u) sustains %.4g touches/s at the table's level; faster touches are lowered "
-                 "or skipped by the exciters' protection\n",
+    fprintf(out,
+            "  the busiest focus (%u) sustains %.4g touches/s at the table's level; faster touches are lowered "
+            "or skipped by the exciters' protection\n",
             fewest_id, fewest);
     return 0;
 }

@@ -44,9 +44,9 @@
 
 struct options {
     const char *board, *table, *triggers, *script, *alsa_device, *latency_report, *touch_device;
-    int rt_priority;          /* -1: from the board */
+    int rt_priority; /* -1: from the board */
     unsigned tail_frames;
-    int drop;                 /* SIGTERM: drop instead of drain */
+    int drop; /* SIGTERM: drop instead of drain */
     int use_syslog;
 };
 
@@ -65,10 +65,10 @@ struct daemon {
     struct hd_trigger_loop triggers;
     struct hd_audio_loop player;
     struct hd_table_policy tables; /* which table plays (main thread) */
-    atomic_int accepting;     /* the trigger thread's events are taken */
+    atomic_int accepting;          /* the trigger thread's events are taken */
     struct hd_latency_chain chain; /* touch -> focal peak, for the current table */
-    int rewind_at_start;      /* the PCM rewinds (probed before the threads start) */
-    double buffer_latency_s;  /* as granted by ALSA */
+    int rewind_at_start;           /* the PCM rewinds (probed before the threads start) */
+    double buffer_latency_s;       /* as granted by ALSA */
     unsigned long lib_pending;     /* libasound messages not logged yet */
     char lib_pending_first[512];   /* the first of them */
     double lib_next_log_s;         /* no libasound line before this time */
@@ -141,10 +141,7 @@ static void chain_for(struct daemon *d, const struct hd_program *p, int rewindin
     d->chain.lead_s = hd_program_lead_time_s(p);
 }
 
-static const char *table_path(const struct daemon *d)
-{
-    return d->opt.table ? d->opt.table : d->board.table_path;
-}
+static const char *table_path(const struct daemon *d) { return d->opt.table ? d->opt.table : d->board.table_path; }
 
 /* After each table the policy hands over (table_policy.h): the touchscreen
  * takes the new foci at its next event, and the touch -> focal peak chain
@@ -175,13 +172,19 @@ static double monotonic_s(void)
 static int parse_args(int argc, char **argv, struct options *o)
 {
     static const struct option longopts[] = {
-        {"board", required_argument, 0, 'b'},        {"table", required_argument, 0, 't'},
-        {"triggers", required_argument, 0, 'T'},     {"script", required_argument, 0, 's'},
-        {"alsa-device", required_argument, 0, 'D'},  {"rt-priority", required_argument, 0, 'p'},
+        {"board", required_argument, 0, 'b'},
+        {"table", required_argument, 0, 't'},
+        {"triggers", required_argument, 0, 'T'},
+        {"script", required_argument, 0, 's'},
+        {"alsa-device", required_argument, 0, 'D'},
+        {"rt-priority", required_argument, 0, 'p'},
         {"touch-device", required_argument, 0, 'U'},
-        {"tail-frames", required_argument, 0, 'f'},  {"latency-report", required_argument, 0, 'L'},
-        {"drop", no_argument, 0, 'd'},               {"syslog", no_argument, 0, 'S'},
-        {"help", no_argument, 0, 'h'},               {0, 0, 0, 0},
+        {"tail-frames", required_argument, 0, 'f'},
+        {"latency-report", required_argument, 0, 'L'},
+        {"drop", no_argument, 0, 'd'},
+        {"syslog", no_argument, 0, 'S'},
+        {"help", no_argument, 0, 'h'},
+        {0, 0, 0, 0},
     };
     memset(o, 0, sizeof *o);
     o->rt_priority = -1;
@@ -189,15 +192,33 @@ static int parse_args(int argc, char **argv, struct options *o)
     while ((c = getopt_long(argc, argv, "", longopts, NULL)) != -1) {
         char *end;
         switch (c) {
-        case 'b': o->board = optarg; break;
-        case 't': o->table = optarg; break;
-        case 'T': o->triggers = optarg; break;
-        case 's': o->script = optarg; break;
-        case 'D': o->alsa_device = optarg; break;
-        case 'U': o->touch_device = optarg; break;
-        case 'L': o->latency_report = optarg; break;
-        case 'd': o->drop = 1; break;
-        case 'S': o->use_syslog = 1; break;
+        case 'b':
+            o->board = optarg;
+            break;
+        case 't':
+            o->table = optarg;
+            break;
+        case 'T':
+            o->triggers = optarg;
+            break;
+        case 's':
+            o->script = optarg;
+            break;
+        case 'D':
+            o->alsa_device = optarg;
+            break;
+        case 'U':
+            o->touch_device = optarg;
+            break;
+        case 'L':
+            o->latency_report = optarg;
+            break;
+        case 'd':
+            o->drop = 1;
+            break;
+        case 'S':
+            o->use_syslog = 1;
+            break;
         case 'p': {
             /* Range-checked in strtol's full width before narrowing:
              * 4294967376 must not become 80. */
@@ -219,8 +240,12 @@ static int parse_args(int argc, char **argv, struct options *o)
             o->tail_frames = (unsigned)v;
             break;
         }
-        case 'h': usage(stdout); exit(0);
-        default: usage(stderr); return 2;
+        case 'h':
+            usage(stdout);
+            exit(0);
+        default:
+            usage(stderr);
+            return 2;
         }
     }
     if (optind != argc || !o->board) {
@@ -243,13 +268,13 @@ static int open_touch(struct daemon *d, char err[HD_ERR_MAX])
         snprintf(err, HD_ERR_MAX, "touch input: out of memory");
         return -ENOMEM;
     }
-    int rc = hd_evdev_open(&d->evdev, &d->board.touch, d->board.path, d->opt.touch_device, &d->touch, f->count,
-                           f->id, f->xy_m, err);
+    int rc = hd_evdev_open(&d->evdev, &d->board.touch, d->board.path, d->opt.touch_device, &d->touch, f->count, f->id,
+                           f->xy_m, err);
     free(f);
     if (rc == 0)
-        hd_log(LOG_INFO, "touch device %s ('%s'): %s, %u foci, max_distance %.3f m, hysteresis %.4f m",
-               d->evdev.path, d->evdev.name, d->touch.multitouch ? "multi-touch (protocol B)" : "single touch",
-               d->touch.focus_count, d->touch.max_distance_m, d->touch.hysteresis_m);
+        hd_log(LOG_INFO, "touch device %s ('%s'): %s, %u foci, max_distance %.3f m, hysteresis %.4f m", d->evdev.path,
+               d->evdev.name, d->touch.multitouch ? "multi-touch (protocol B)" : "single touch", d->touch.focus_count,
+               d->touch.max_distance_m, d->touch.hysteresis_m);
     return rc;
 }
 
@@ -424,8 +449,9 @@ static int run_live(struct daemon *d)
         const int failed = atomic_load(&d->player.failed);
         if (failed) {
             if (failed == HD_AUDIO_UNPACED)
-                hd_log(LOG_ERR, "ALSA device '%s' takes frames faster than real time: it does not pace the stream "
-                                "([alsa] pacing = device in %s; a plugin such as null or file needs pacing = clock)",
+                hd_log(LOG_ERR,
+                       "ALSA device '%s' takes frames faster than real time: it does not pace the stream "
+                       "([alsa] pacing = device in %s; a plugin such as null or file needs pacing = clock)",
                        device_name(d), d->board.path);
             else
                 hd_log(LOG_ERR, "ALSA device '%s' failed for %.0f s without a second's rest: giving up", device_name(d),
@@ -522,8 +548,7 @@ int main(int argc, char **argv)
     hd_log(LOG_INFO, "%s: %u ch %s %u Hz, period %lu frames, buffer %lu frames = %.3f ms buffer latency; table %s",
            d.opt.alsa_device ? d.opt.alsa_device : d.board.alsa_device, d.board.channels,
            hd_format_name(d.board.format), d.audio.rate_hz, (unsigned long)d.audio.period_frames,
-           (unsigned long)d.audio.buffer_frames, 1e3 * (double)d.audio.buffer_frames / d.audio.rate_hz,
-           table_path(&d));
+           (unsigned long)d.audio.buffer_frames, 1e3 * (double)d.audio.buffer_frames / d.audio.rate_hz, table_path(&d));
     if (d.opt.script) {
         /* Unpaced and short: a signal ends it as it always did. */
         sigprocmask(SIG_UNBLOCK, &early, NULL);

@@ -30,8 +30,8 @@ int hd_mixer_gain(const struct hd_program *p, double level, double gain_limit, s
     return hd_mixer_gain_in_range(p, level, NULL, gain_limit, m);
 }
 
-int hd_mixer_gain_in_range(const struct hd_program *p, double level, const haptic_gain_range *range,
-                           double gain_limit, struct hd_mix *m)
+int hd_mixer_gain_in_range(const struct hd_program *p, double level, const haptic_gain_range *range, double gain_limit,
+                           struct hd_mix *m)
 {
     if (m->count == 0 || m->count > HD_MAX_VOICE_FOCI)
         return -EINVAL;

@@ -10,12 +10,11 @@
 
 #include <stdint.h>
 
-
 struct hd_mix {
     uint32_t count;
     uint32_t index[HD_MAX_VOICE_FOCI]; /* table focus indices, distinct */
     double gain_energy, gain_peak, gain;
-    int64_t gain_q30;                  /* round(gain * 2^30) */
+    int64_t gain_q30; /* round(gain * 2^30) */
 };
 
 /* Compute the gain for the foci in m->index[0..count) at the user's level
@@ -30,8 +29,8 @@ int hd_mixer_gain(const struct hd_program *p, double level, double gain_limit, s
  * then runs at the level that gives the clamped gain, and the peak limit and
  * gain_limit, which only lower it, bind as ever. One focus has g_energy = 1:
  * its level itself is clamped. Real-time safe. */
-int hd_mixer_gain_in_range(const struct hd_program *p, double level, const haptic_gain_range *range,
-                           double gain_limit, struct hd_mix *m);
+int hd_mixer_gain_in_range(const struct hd_program *p, double level, const haptic_gain_range *range, double gain_limit,
+                           struct hd_mix *m);
 
 /* Energy sum_{f,f' in S} G[f][f'] of the unscaled sum (O(K^2) from the Gram matrix). */
 double hd_mixer_sum_energy(const struct hd_program *p, const uint32_t *index, uint32_t count);

@@ -57,8 +57,9 @@ int hd_panel_speed_ratio(const struct hd_panel_board *pb, const haptic_table *t,
     haptic_panel panel;
     const int known = haptic_table_panel(t, &panel) == 0;
     if ((pb->temperature_input[0] || !isnan(celsius)) && !known) {
-        snprintf(err, HD_ERR_MAX, "[panel] temperature_input: the table has no panel section (format 1.2 from "
-                                  "calibgen): its calibration temperature and dE/E/dT are unknown");
+        snprintf(err, HD_ERR_MAX,
+                 "[panel] temperature_input: the table has no panel section (format 1.2 from "
+                 "calibgen): its calibration temperature and dE/E/dT are unknown");
         return -EINVAL;
     }
     if (!isnan(celsius)) {

@@ -54,10 +54,7 @@ void hd_player_free(struct hd_player *pl)
     pl->acc = NULL;
 }
 
-static uint64_t voice_end(const struct hd_voice *v)
-{
-    return v->start + v->program->samples;
-}
+static uint64_t voice_end(const struct hd_voice *v) { return v->start + v->program->samples; }
 
 /* A slot for a voice starting at pl->frame. Free: unused, or its voice lies
  * wholly before `committed`. Else, without loss, the voice that ended first
@@ -214,8 +211,8 @@ void hd_player_render(struct hd_player *pl, void *out, uint32_t frames)
     }
     if (pl->protected)
         hd_protect_played(&pl->protect, pl->acc, frames, pl->channels, device_ns(pl, f1));
-    pl->stats.clipped_samples += pl->format == HD_FMT_S16_LE ? haptic_mix_to_s16(pl->acc, out, n)
-                                                             : haptic_mix_to_s32(pl->acc, out, n);
+    pl->stats.clipped_samples +=
+        pl->format == HD_FMT_S16_LE ? haptic_mix_to_s16(pl->acc, out, n) : haptic_mix_to_s32(pl->acc, out, n);
     pl->frame = f1;
     if (f1 > pl->rewind_window && f1 - pl->rewind_window > pl->committed)
         pl->committed = f1 - pl->rewind_window;
@@ -233,10 +230,7 @@ void hd_player_set_timeline(struct hd_player *pl, uint64_t frame, uint32_t windo
     pl->rewind_window = window;
 }
 
-uint64_t hd_player_rewindable(const struct hd_player *pl)
-{
-    return pl->frame - pl->committed;
-}
+uint64_t hd_player_rewindable(const struct hd_player *pl) { return pl->frame - pl->committed; }
 
 uint64_t hd_player_rewind(struct hd_player *pl, uint64_t frames)
 {

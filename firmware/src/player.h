@@ -29,34 +29,34 @@
 #define HD_MAX_VOICES 8u
 
 struct hd_voice {
-    const struct hd_program *program;   /* NULL: slot free */
+    const struct hd_program *program; /* NULL: slot free */
     struct hd_mix mix;
-    uint64_t start;                     /* device frame of its first sample */
+    uint64_t start; /* device frame of its first sample */
 };
 
 struct hd_player_stats {
     uint64_t voices_started, voices_stolen, clipped_samples, unknown_foci, dropped_foci;
-    uint64_t policy_foci;               /* foci left out by [mixer] max_foci */
+    uint64_t policy_foci; /* foci left out by [mixer] max_foci */
 };
 
 struct hd_player {
     struct hd_voice voices[HD_MAX_VOICES];
-    uint32_t frames_max;                /* period size the scratch buffer holds */
-    uint32_t channels;                  /* device channels */
+    uint32_t frames_max; /* period size the scratch buffer holds */
+    uint32_t channels;   /* device channels */
     enum hd_sample_format format;
     uint32_t map_count;
     uint32_t channel_map[HD_MAX_CHANNELS];
     double gain_limit;
-    _Atomic uint64_t level_bits;        /* the user's intensity, linear, as a double's bits (hd_player_set_level) */
-    uint32_t max_foci;                  /* [mixer] max_foci */
-    enum hd_foci_policy foci_policy;    /* which foci play when a voice asks for more */
+    _Atomic uint64_t level_bits;     /* the user's intensity, linear, as a double's bits (hd_player_set_level) */
+    uint32_t max_foci;               /* [mixer] max_foci */
+    enum hd_foci_policy foci_policy; /* which foci play when a voice asks for more */
     uint32_t rate_hz;
-    struct hd_protect protect;          /* the exciters' ratings (protect.h) */
-    int protected;                      /* the board has [exciters]: every voice is admitted by `protect` */
-    int64_t *acc;                       /* [frames_max][channels], allocated once at init */
-    uint64_t frame;                     /* next device frame render writes */
-    uint64_t committed;                 /* frames before this are never rendered again */
-    uint32_t rewind_window;             /* how far behind `frame` a rewind may go (0: never) */
+    struct hd_protect protect; /* the exciters' ratings (protect.h) */
+    int protected;             /* the board has [exciters]: every voice is admitted by `protect` */
+    int64_t *acc;              /* [frames_max][channels], allocated once at init */
+    uint64_t frame;            /* next device frame render writes */
+    uint64_t committed;        /* frames before this are never rendered again */
+    uint32_t rewind_window;    /* how far behind `frame` a rewind may go (0: never) */
     struct hd_player_stats stats;
 };
 

@@ -31,8 +31,7 @@ int32_t hd_program_find(const struct hd_program *p, uint32_t id)
     return lo < p->focus_count && p->by_id[lo].id == id ? (int32_t)p->by_id[lo].index : -1;
 }
 
-static int check_against_board(const haptic_table *t, const char *path, const struct hd_board *b,
-                               char err[HD_ERR_MAX])
+static int check_against_board(const haptic_table *t, const char *path, const struct hd_board *b, char err[HD_ERR_MAX])
 {
     if (t->sample_rate_hz != b->rate_hz) {
         snprintf(err, HD_ERR_MAX, "%s: table rate %lu Hz does not match the board's [alsa] rate_hz %u (%s)", path,
@@ -134,7 +133,7 @@ int hd_program_load(const char *path, const struct hd_board *b, struct hd_progra
         return rc;
     }
     (*out)->table.owned = t.owned; /* the program now frees the file buffer */
-    snprintf((*out)->path, sizeof (*out)->path, "%s", path);
+    snprintf((*out)->path, sizeof(*out)->path, "%s", path);
     return 0;
 }
 
@@ -219,7 +218,7 @@ int hd_program_clone(const struct hd_program *src, const struct hd_board *b, str
         return rc;
     }
     (*out)->table.owned = copy;
-    snprintf((*out)->path, sizeof (*out)->path, "%s", src->path);
+    snprintf((*out)->path, sizeof(*out)->path, "%s", src->path);
     return 0;
 }
 
@@ -252,8 +251,7 @@ double hd_program_lead_time_s(const struct hd_program *p)
     return lead / p->speed_ratio;
 }
 
-int hd_program_voice_range(const struct hd_program *p, const uint32_t *index, uint32_t count,
-                           haptic_gain_range *out)
+int hd_program_voice_range(const struct hd_program *p, const uint32_t *index, uint32_t count, haptic_gain_range *out)
 {
     if (!p->range || count == 0)
         return 0;
@@ -302,8 +300,10 @@ int hd_program_range_note(const struct hd_program *p, double level, char *out, s
         snprintf(a, sizeof a, " above the safe range of %u of %u foci (tops %+.1f..%+.1f dB): they play at their tops",
                  (unsigned)above.count, k, above.min_db, above.max_db);
     if (below.count)
-        snprintf(b, sizeof b, "%s below the safe range of %u of %u foci (bottoms %+.1f..%+.1f dB): they play at their "
-                 "bottoms", a[0] ? ";" : "", (unsigned)below.count, k, below.min_db, below.max_db);
+        snprintf(b, sizeof b,
+                 "%s below the safe range of %u of %u foci (bottoms %+.1f..%+.1f dB): they play at their "
+                 "bottoms",
+                 a[0] ? ";" : "", (unsigned)below.count, k, below.min_db, below.max_db);
     if (failing.count)
         snprintf(c, sizeof c, "%s %u of %u foci pass at no gain (tops %+.1f..%+.1f dB): they play at their tops",
                  a[0] || b[0] ? ";" : "", (unsigned)failing.count, k, failing.min_db, failing.max_db);

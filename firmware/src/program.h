@@ -25,16 +25,16 @@ struct hd_focus_key {
 struct hd_program {
     haptic_table table;
     uint32_t focus_count, channel_count, samples;
-    struct hd_focus_key *by_id;  /* sorted by id */
-    uint32_t blocks;             /* ceil(samples / HD_PEAK_BLOCK) */
-    uint16_t *block_peak;        /* [focus][block][channel]: max |s| in that block (<= 32768) */
-    double *root_energy;         /* [focus][channel]: sqrt(sum_n s[n][c]^2), the exciters' heat (protect.h) */
-    haptic_gain_range *range;    /* [focus]: the gains it passes the verdict at (1.3); NULL: the table has none.
+    struct hd_focus_key *by_id; /* sorted by id */
+    uint32_t blocks;            /* ceil(samples / HD_PEAK_BLOCK) */
+    uint16_t *block_peak;       /* [focus][block][channel]: max |s| in that block (<= 32768) */
+    double *root_energy;        /* [focus][channel]: sqrt(sum_n s[n][c]^2), the exciters' heat (protect.h) */
+    haptic_gain_range *range;   /* [focus]: the gains it passes the verdict at (1.3); NULL: the table has none.
                                     A stretch keeps them: they hold for the drives as the plate receives them */
-    double speed_ratio;          /* the drives play this many times as fast as stored (1: as stored) */
-    int16_t *stretched;          /* [focus][n][c], `samples` frames; NULL at speed ratio 1 */
-    double *gram;                /* [focus][focus] of `stretched`; NULL at speed ratio 1 */
-    uint64_t stretch_clipped;    /* samples the stretch saturated */
+    double speed_ratio;         /* the drives play this many times as fast as stored (1: as stored) */
+    int16_t *stretched;         /* [focus][n][c], `samples` frames; NULL at speed ratio 1 */
+    double *gram;               /* [focus][focus] of `stretched`; NULL at speed ratio 1 */
+    uint64_t stretch_clipped;   /* samples the stretch saturated */
     char path[HD_PATH_MAX];
 };
 
@@ -73,8 +73,7 @@ double hd_program_lead_time_s(const struct hd_program *p);
 /* The safe range of the foci index[0..count) played together, the
  * intersection of theirs (haptic_gain_range_intersect): 1 and *out, or 0
  * when the table has none (the gain is then not clamped). Real-time safe. */
-int hd_program_voice_range(const struct hd_program *p, const uint32_t *index, uint32_t count,
-                           haptic_gain_range *out);
+int hd_program_voice_range(const struct hd_program *p, const uint32_t *index, uint32_t count, haptic_gain_range *out);
 
 /* What the clamp does to the foci played alone at the user's `level`
  * (linear; alone, a focus's gain is the level: haptic_mix.h), in one line

@@ -16,8 +16,8 @@ int hd_protect_init(struct hd_protect *pr, uint32_t channels, const struct hd_ex
         const struct hd_exciter_rating *r = &rating[c];
         if (!(r->rated_power_w >= 0) || !isfinite(r->rated_power_w))
             return -EINVAL;
-        if (r->rated_power_w > 0 && (!(r->impedance_ohm > 0) || !isfinite(r->impedance_ohm) || !(r->tau_s > 0) ||
-                                     !isfinite(r->tau_s)))
+        if (r->rated_power_w > 0 &&
+            (!(r->impedance_ohm > 0) || !isfinite(r->impedance_ohm) || !(r->tau_s > 0) || !isfinite(r->tau_s)))
             return -EINVAL;
         pr->rating[c] = *r;
         if (r->rated_power_w > 0) {
@@ -28,8 +28,7 @@ int hd_protect_init(struct hd_protect *pr, uint32_t channels, const struct hd_ex
     return 0;
 }
 
-void hd_protect_voice_cost(const struct hd_protect *pr, uint32_t c, double root, double gain,
-                           struct hd_voice_cost *out)
+void hd_protect_voice_cost(const struct hd_protect *pr, uint32_t c, double root, double gain, struct hd_voice_cost *out)
 {
     *out = (struct hd_voice_cost){0.0, 0.0, INFINITY};
     if (c >= pr->channels || pr->rating[c].rated_power_w <= 0)

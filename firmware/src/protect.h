@@ -37,12 +37,12 @@
 #include <stdint.h>
 
 #define HD_PROTECT_SKIP_BELOW 1e-3
-#define HD_PROTECT_DEFAULT_TAU_S 2.0  /* when the data sheet gives no thermal time constant */
+#define HD_PROTECT_DEFAULT_TAU_S 2.0 /* when the data sheet gives no thermal time constant */
 
 struct hd_exciter_rating {
-    double rated_power_w;   /* RMS power rating; 0: channel not protected */
-    double impedance_ohm;   /* nominal impedance */
-    double tau_s;           /* the coil's thermal time constant */
+    double rated_power_w; /* RMS power rating; 0: channel not protected */
+    double impedance_ohm; /* nominal impedance */
+    double tau_s;         /* the coil's thermal time constant */
 };
 
 struct hd_protect {

@@ -12,7 +12,7 @@
 #include <stdio.h>
 
 struct hd_script {
-    struct hd_event *events;  /* in file order, frame non-decreasing */
+    struct hd_event *events; /* in file order, frame non-decreasing */
     size_t count;
 };
 

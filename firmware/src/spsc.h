@@ -15,8 +15,8 @@
 #define HD_RING_SIZE 256u /* power of two */
 
 struct hd_spsc {
-    _Alignas(64) _Atomic uint32_t head;   /* next slot to pop (consumer writes) */
-    _Alignas(64) _Atomic uint32_t tail;   /* next slot to push (producer writes) */
+    _Alignas(64) _Atomic uint32_t head; /* next slot to pop (consumer writes) */
+    _Alignas(64) _Atomic uint32_t tail; /* next slot to push (producer writes) */
     _Atomic uint64_t dropped;
     struct hd_event slots[HD_RING_SIZE];
 };

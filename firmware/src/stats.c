@@ -44,8 +44,9 @@ void hd_stats_log(struct hd_engine *e, struct hd_counters *last)
         }
         now.quiet_looks = 0;
     } else if (now.in_burst && ++now.quiet_looks >= HD_STATS_BURST_QUIET) {
-        hd_log(LOG_WARNING, "exciter protection: burst over, %llu voices lowered and %llu skipped in it (%llu and "
-                            "%llu in total)",
+        hd_log(LOG_WARNING,
+               "exciter protection: burst over, %llu voices lowered and %llu skipped in it (%llu and "
+               "%llu in total)",
                (unsigned long long)(now.attenuated - now.burst_attenuated0),
                (unsigned long long)(now.skipped - now.burst_skipped0), (unsigned long long)now.attenuated,
                (unsigned long long)now.skipped);
@@ -94,12 +95,15 @@ static long rss_kib(const char *field)
 void hd_stats_log_chain(const char *table_path, const struct hd_latency_chain *c)
 {
     if (isnan(c->lead_s))
-        hd_log(LOG_INFO, "touch -> focal peak (%s): input path (measured per touch, --latency-report) + queue %.3f ms "
-               "(%s) + lead time unknown (the table does not carry it)", table_path, 1e3 * c->queue_s, c->queue_why);
+        hd_log(LOG_INFO,
+               "touch -> focal peak (%s): input path (measured per touch, --latency-report) + queue %.3f ms "
+               "(%s) + lead time unknown (the table does not carry it)",
+               table_path, 1e3 * c->queue_s, c->queue_why);
     else
-        hd_log(LOG_INFO, "touch -> focal peak (%s): input path (measured per touch, --latency-report) + queue %.3f ms "
-               "(%s) + lead time %.3f ms (table) = %.3f ms + input path", table_path, 1e3 * c->queue_s, c->queue_why,
-               1e3 * c->lead_s, 1e3 * (c->queue_s + c->lead_s));
+        hd_log(LOG_INFO,
+               "touch -> focal peak (%s): input path (measured per touch, --latency-report) + queue %.3f ms "
+               "(%s) + lead time %.3f ms (table) = %.3f ms + input path",
+               table_path, 1e3 * c->queue_s, c->queue_why, 1e3 * c->lead_s, 1e3 * (c->queue_s + c->lead_s));
 }
 
 void hd_stats_latency_report(const char *path, struct hd_engine *e, double buffer_latency_s,
@@ -134,7 +138,8 @@ void hd_stats_latency_report(const char *path, struct hd_engine *e, double buffe
             rss_kib("VmHWM:"), rss_kib("RssAnon:"), rss_kib("RssFile:"));
     fprintf(f, "table_bytes %zu\n", e->current ? e->current->table.size : 0);
     fprintf(f, "xruns %llu\n", (unsigned long long)atomic_load(&e->stats.xruns));
-    fprintf(f, "voices_lowered %llu\nvoices_skipped %llu\n", (unsigned long long)atomic_load(&e->stats.voices_attenuated),
+    fprintf(f, "voices_lowered %llu\nvoices_skipped %llu\n",
+            (unsigned long long)atomic_load(&e->stats.voices_attenuated),
             (unsigned long long)atomic_load(&e->stats.voices_skipped));
     fprintf(f, "rewinds %llu\nrewound_frames %llu\n", (unsigned long long)atomic_load(&e->stats.rewinds),
             (unsigned long long)atomic_load(&e->stats.rewound_frames));

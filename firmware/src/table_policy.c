@@ -33,8 +33,7 @@ static int stretch_for_panel(const struct hd_table_policy *tp, struct hd_program
 }
 
 /* The table file, stretched for the panel at `celsius`. */
-static int load_program(const struct hd_table_policy *tp, double celsius, struct hd_program **out,
-                        char err[HD_ERR_MAX])
+static int load_program(const struct hd_table_policy *tp, double celsius, struct hd_program **out, char err[HD_ERR_MAX])
 {
     struct hd_program *p;
     int rc = hd_program_load(tp->path, tp->board, &p, err);
@@ -94,8 +93,10 @@ int hd_table_policy_open(struct hd_table_policy *tp, const struct hd_board *b, c
         /* A sensor whose driver probes late is not fatal: the table plays at
          * the board's speed ratio until the temperature can be read. */
         if (hd_panel_read_celsius(pb->temperature_input, &tp->celsius, err) != 0) {
-            hd_log(LOG_WARNING, "[panel] temperature_input: %s: the table plays at the board's speed ratio until it "
-                                "can be read", err);
+            hd_log(LOG_WARNING,
+                   "[panel] temperature_input: %s: the table plays at the board's speed ratio until it "
+                   "can be read",
+                   err);
             tp->celsius = NAN;
             tp->sensor_failing = true;
         }

@@ -35,15 +35,15 @@
 
 struct hd_table_policy {
     const struct hd_board *board;
-    const char *path;              /* the table file */
-    struct hd_engine *engine;      /* the engine the tables are handed to (hd_table_policy_attach) */
+    const char *path;         /* the table file */
+    struct hd_engine *engine; /* the engine the tables are handed to (hd_table_policy_attach) */
     void (*handed_over)(void *ctx, const struct hd_program *p);
     void *ctx;
-    double celsius;                /* panel temperature the current table is stretched for; NAN: none read */
-    double refused_celsius;        /* a temperature the table could not be stretched for; NAN: none */
-    double next_poll_s;            /* when the sensor is read next, on the caller's clock */
-    bool sensor_failing;           /* the last reading failed (logged once per failing stretch) */
-    struct hd_program *latest;     /* handed over last: what a temperature step stretches again */
+    double celsius;            /* panel temperature the current table is stretched for; NAN: none read */
+    double refused_celsius;    /* a temperature the table could not be stretched for; NAN: none */
+    double next_poll_s;        /* when the sensor is read next, on the caller's clock */
+    bool sensor_failing;       /* the last reading failed (logged once per failing stretch) */
+    struct hd_program *latest; /* handed over last: what a temperature step stretches again */
 };
 
 /* The first table: reads the board's temperature sensor, if it has one (the

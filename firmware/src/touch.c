@@ -227,7 +227,8 @@ int hd_touch_event(struct hd_touch *t, uint16_t type, uint16_t code, int32_t val
         if (type == EV_KEY && code == BTN_TOUCH) {
             /* Each press is a new contact: number them as tracking ids. */
             if (value)
-                begin(c, c->tracking_id >= 0 ? c->tracking_id : (t->single_touch_id = (t->single_touch_id + 1) & 0x7fffffff));
+                begin(c, c->tracking_id >= 0 ? c->tracking_id
+                                             : (t->single_touch_id = (t->single_touch_id + 1) & 0x7fffffff));
             else
                 begin(c, -1);
         } else if (type == EV_ABS && (code == ABS_X || code == ABS_Y)) {

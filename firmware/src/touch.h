@@ -28,7 +28,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-#define HD_TOUCH_SLOTS 16u     /* contacts tracked at once (more slots are ignored) */
+#define HD_TOUCH_SLOTS 16u /* contacts tracked at once (more slots are ignored) */
 #define HD_TOUCH_MAX_FOCI 1024u
 
 /* plate = (m[0] px + m[1] py + m[2], m[3] px + m[4] py + m[5]) in metres */
@@ -47,10 +47,10 @@ int hd_touch_map_from_area(int32_t x_min, int32_t x_max, int32_t y_min, int32_t 
 void hd_touch_map_apply(const struct hd_touch_map *map, double px, double py, double *x_m, double *y_m);
 
 struct hd_touch_contact {
-    int32_t tracking_id;       /* -1: no contact */
-    int32_t x, y;              /* panel units */
-    bool seen_xy;              /* a position arrived since the contact began */
-    int32_t focus;             /* index into the foci, -1: none held */
+    int32_t tracking_id; /* -1: no contact */
+    int32_t x, y;        /* panel units */
+    bool seen_xy;        /* a position arrived since the contact began */
+    int32_t focus;       /* index into the foci, -1: none held */
 };
 
 struct hd_touch {
@@ -59,11 +59,11 @@ struct hd_touch {
     uint32_t focus_count;
     uint32_t focus_id[HD_TOUCH_MAX_FOCI];
     double focus_xy_m[HD_TOUCH_MAX_FOCI][2];
-    bool multitouch;           /* protocol B device (has ABS_MT_SLOT) */
-    uint32_t slot;             /* current slot */
-    int32_t single_touch_id;   /* single-touch panels: presses numbered as tracking ids */
-    struct hd_touch_contact now[HD_TOUCH_SLOTS];     /* being updated by the frame in progress */
-    struct hd_touch_contact frame[HD_TOUCH_SLOTS];   /* as of the last SYN_REPORT */
+    bool multitouch;                               /* protocol B device (has ABS_MT_SLOT) */
+    uint32_t slot;                                 /* current slot */
+    int32_t single_touch_id;                       /* single-touch panels: presses numbered as tracking ids */
+    struct hd_touch_contact now[HD_TOUCH_SLOTS];   /* being updated by the frame in progress */
+    struct hd_touch_contact frame[HD_TOUCH_SLOTS]; /* as of the last SYN_REPORT */
     uint64_t touches, refires, out_of_range, dropped_frames, ignored_slots;
 };
 

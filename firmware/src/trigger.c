@@ -41,8 +41,7 @@ int hd_trigger_edge(struct hd_trigger *t, unsigned offset, enum hd_edge edge, ui
     /* Inside the window: start <= ts < start + lockout. A timestamp before the
      * window start (a clock stepped back) opens a new window instead of
      * locking the line until the clock catches up. */
-    if (s->locked && timestamp_ns < s->locked_until_ns &&
-        s->locked_until_ns - timestamp_ns <= t->lockout_ns) {
+    if (s->locked && timestamp_ns < s->locked_until_ns && s->locked_until_ns - timestamp_ns <= t->lockout_ns) {
         t->bounces++;
         return 0;
     }
@@ -156,8 +155,7 @@ int hd_host_parse(const char *line, struct hd_event *out, char *err, unsigned er
     }
     bool single = is_word(w, "focus");
     if (!single && !is_word(w, "foci")) {
-        snprintf(err, err_size, "unknown command %s (expected focus N, foci A,B or at FRAME ...)",
-                 quoted(q, w.p, w.n));
+        snprintf(err, err_size, "unknown command %s (expected focus N, foci A,B or at FRAME ...)", quoted(q, w.p, w.n));
         return -EINVAL;
     }
     struct span l;
@@ -168,8 +166,8 @@ int hd_host_parse(const char *line, struct hd_event *out, char *err, unsigned er
         return -EINVAL;
     }
     char list[256];
-    int n = copy_word(l, list, sizeof list) ? hd_parse_uint_list(list, out->focus_ids, HD_MAX_EVENT_FOCI, UINT32_MAX)
-                                            : -1;
+    int n =
+        copy_word(l, list, sizeof list) ? hd_parse_uint_list(list, out->focus_ids, HD_MAX_EVENT_FOCI, UINT32_MAX) : -1;
     if (n < 1 || (single && n != 1)) {
         snprintf(err, err_size, "%s is not %s", quoted(q, l.p, l.n),
                  single ? "one focus id" : "a comma-separated list of up to 16 focus ids");

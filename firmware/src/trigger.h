@@ -27,7 +27,7 @@
 struct hd_trigger_line_state {
     unsigned offset;
     bool active_low;
-    bool locked;                   /* a window is open (locked_until_ns valid) */
+    bool locked; /* a window is open (locked_until_ns valid) */
     uint64_t locked_until_ns;
     uint32_t focus_count;
     uint32_t focus_ids[HD_MAX_EVENT_FOCI];
@@ -63,7 +63,7 @@ int hd_trigger_edge(struct hd_trigger *t, unsigned offset, enum hd_edge edge, ui
 enum hd_line_verdict { HD_LINE_OK = 0, HD_LINE_GLITCH, HD_LINE_DISABLED };
 
 struct hd_line_health {
-    unsigned read_errors[HD_MAX_LINES];  /* failures in a row */
+    unsigned read_errors[HD_MAX_LINES]; /* failures in a row */
     bool dead[HD_MAX_LINES];
 };
 

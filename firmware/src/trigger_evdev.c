@@ -99,8 +99,10 @@ int hd_evdev_open(struct hd_evdev *e, const struct hd_touch_board *cfg, const ch
     const unsigned ax = mt ? ABS_MT_POSITION_X : ABS_X, ay = mt ? ABS_MT_POSITION_Y : ABS_Y;
     const struct input_absinfo *ix = libevdev_get_abs_info(e->dev, ax), *iy = libevdev_get_abs_info(e->dev, ay);
     if (!ix || !iy || (!mt && !libevdev_has_event_code(e->dev, EV_KEY, BTN_TOUCH))) {
-        snprintf(err, HD_ERR_MAX, "touch device %s ('%s', [touch] in %s) reports neither multi-touch slots "
-                 "nor BTN_TOUCH with ABS_X/Y: not a touchscreen", e->path, e->name, board_path);
+        snprintf(err, HD_ERR_MAX,
+                 "touch device %s ('%s', [touch] in %s) reports neither multi-touch slots "
+                 "nor BTN_TOUCH with ABS_X/Y: not a touchscreen",
+                 e->path, e->name, board_path);
         hd_evdev_close(e);
         return -ENOTSUP;
     }
@@ -121,7 +123,8 @@ int hd_evdev_open(struct hd_evdev *e, const struct hd_touch_board *cfg, const ch
         rc = hd_touch_init(t, &map, cfg->max_distance_m, cfg->hysteresis_m, mt, focus_count, focus_id, focus_xy_m);
     if (rc != 0) {
         snprintf(err, HD_ERR_MAX, "touch device %s ('%s', [touch] in %s): %s", e->path, e->name, board_path,
-                 rc == -E2BIG ? "the table has more foci than touch input serves" : "the panel reports an empty axis range");
+                 rc == -E2BIG ? "the table has more foci than touch input serves"
+                              : "the panel reports an empty axis range");
         hd_evdev_close(e);
         return rc;
     }
@@ -169,8 +172,7 @@ static void feed(struct hd_touch *t, const struct input_event *ev, void (*push)(
         push(ctx, &out);
 }
 
-int hd_evdev_read(struct hd_evdev *e, struct hd_touch *t, void (*push)(void *ctx, const struct hd_event *ev),
-                  void *ctx)
+int hd_evdev_read(struct hd_evdev *e, struct hd_touch *t, void (*push)(void *ctx, const struct hd_event *ev), void *ctx)
 {
     if (!e->dev)
         return -ENODEV;

@@ -13,12 +13,12 @@
 struct libevdev;
 
 struct hd_evdev {
-    struct libevdev *dev;          /* NULL while closed */
-    int fd;                        /* -1 while closed */
-    char path[HD_PATH_MAX];        /* the node opened (or last opened) */
-    char name[256];                /* the device's name */
+    struct libevdev *dev;   /* NULL while closed */
+    int fd;                 /* -1 while closed */
+    char path[HD_PATH_MAX]; /* the node opened (or last opened) */
+    char name[256];         /* the device's name */
     const struct hd_touch_board *cfg;
-    const char *override_path;     /* --touch-device, or NULL */
+    const char *override_path; /* --touch-device, or NULL */
 };
 
 /* Open the device ([touch] device or name, or override_path) and initialize

@@ -10,10 +10,14 @@
 static int bias_flags(enum hd_bias b)
 {
     switch (b) {
-    case HD_BIAS_DISABLE: return GPIOD_LINE_REQUEST_FLAG_BIAS_DISABLE;
-    case HD_BIAS_PULL_UP: return GPIOD_LINE_REQUEST_FLAG_BIAS_PULL_UP;
-    case HD_BIAS_PULL_DOWN: return GPIOD_LINE_REQUEST_FLAG_BIAS_PULL_DOWN;
-    case HD_BIAS_AS_IS: break;
+    case HD_BIAS_DISABLE:
+        return GPIOD_LINE_REQUEST_FLAG_BIAS_DISABLE;
+    case HD_BIAS_PULL_UP:
+        return GPIOD_LINE_REQUEST_FLAG_BIAS_PULL_UP;
+    case HD_BIAS_PULL_DOWN:
+        return GPIOD_LINE_REQUEST_FLAG_BIAS_PULL_DOWN;
+    case HD_BIAS_AS_IS:
+        break;
     }
     return 0;
 }

@@ -21,7 +21,7 @@ struct line_reader {
     char buf[HD_TRIGGER_LINE_MAX + 2];
     size_t len;
     unsigned line_no;
-    size_t overflow;               /* bytes of a line too long seen so far; 0: none */
+    size_t overflow; /* bytes of a line too long seen so far; 0: none */
     struct hd_log_limit warn;
 };
 
@@ -156,15 +156,17 @@ static void take_new_foci(struct hd_trigger_loop *l)
     if (!f)
         return;
     if (hd_touch_set_foci(l->touch, f->count, f->id, f->xy_m) != 0)
-        hd_log(LOG_ERR, "touch input: the reloaded table has %u foci, more than %u: the previous foci stay",
-               f->count, HD_TOUCH_MAX_FOCI);
+        hd_log(LOG_ERR, "touch input: the reloaded table has %u foci, more than %u: the previous foci stay", f->count,
+               HD_TOUCH_MAX_FOCI);
     free(f);
 }
 
 static void touch_gone(struct hd_trigger_loop *l, int err)
 {
-    hd_log(LOG_ERR, "touch device %s ('%s') gone (%s): hapticd keeps running on its other triggers and looks "
-           "for it again every second", l->evdev->path, l->evdev->name, strerror(-err));
+    hd_log(LOG_ERR,
+           "touch device %s ('%s') gone (%s): hapticd keeps running on its other triggers and looks "
+           "for it again every second",
+           l->evdev->path, l->evdev->name, strerror(-err));
     hd_evdev_close(l->evdev);
     hd_touch_lost(l->touch);
 }

@@ -26,13 +26,13 @@ struct hd_touch_foci *hd_touch_foci_of(const haptic_table *t);
 
 struct hd_trigger_loop {
     int stop_fd;
-    int host_fd;                   /* -1: none */
-    const char *host_name;         /* for messages */
-    struct hd_gpio *gpio;          /* NULL: no GPIO lines */
+    int host_fd;           /* -1: none */
+    const char *host_name; /* for messages */
+    struct hd_gpio *gpio;  /* NULL: no GPIO lines */
     struct hd_trigger *trigger;
-    struct hd_evdev *evdev;        /* NULL: no touchscreen */
+    struct hd_evdev *evdev; /* NULL: no touchscreen */
     struct hd_touch *touch;
-    _Atomic(struct hd_touch_foci *) next_foci;  /* main -> trigger thread on reload */
+    _Atomic(struct hd_touch_foci *) next_foci; /* main -> trigger thread on reload */
     void (*push)(void *ctx, const struct hd_event *ev);
     void *push_ctx;
     struct hd_line_health health;

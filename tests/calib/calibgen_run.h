@@ -21,7 +21,7 @@ inline std::string read_text(const std::filesystem::path &p)
 }
 
 struct Outcome {
-    int exit_code = -1;  // -1: killed or did not exit
+    int exit_code = -1; // -1: killed or did not exit
     std::string err;
 };
 
@@ -38,4 +38,4 @@ inline Outcome run(const std::filesystem::path &dir, const std::string &args)
     return r;
 }
 
-}  // namespace calibgen_run
+} // namespace calibgen_run

@@ -48,4 +48,4 @@ inline std::string error_of(const std::string &text, const std::string &file = "
     return "";
 }
 
-}  // namespace scene_text
+} // namespace scene_text

@@ -20,8 +20,8 @@ using study::DispersionSetting;
 
 namespace {
 
-constexpr double d = 0.002;     // 2 mm
-constexpr double f_hz = 600.0;  // the paper pulses' f_max region
+constexpr double d = 0.002;    // 2 mm
+constexpr double f_hz = 600.0; // the paper pulses' f_max region
 
 physics::Material material(const char *name) { return *physics::find_material(name); }
 
@@ -40,7 +40,7 @@ double model_floor(const physics::Material &m)
     return physics::kirchhoff_phase_velocity(m, d, f_hz) / physics::a0_phase_velocity(m, d, f_hz) - 1;
 }
 
-}  // namespace
+} // namespace
 
 TEST(Accuracy, MeasuredPhaseErrorFallsAtSecondOrder)
 {
@@ -90,7 +90,7 @@ TEST(Accuracy, ChosenSettingMeetsTheTargetAndIsNotWasteful)
     for (double target : {0.03, 0.01}) {
         const model::Choice c = model::choose_points_per_wavelength(s, target);
         DispersionSetting set;
-        set.points_per_wavelength = c.effective_ppw;  // the grid the scene gets
+        set.points_per_wavelength = c.effective_ppw; // the grid the scene gets
         set.precision = engine::Precision::f32;
         const double measured = study::measure_phase_velocity(s.plate.material, d, f_hz, set).relative_error;
         std::printf("target %.1f %%: N = %.2f (grid %.2f), predicted %+.3f %%, measured %+.3f %%\n", 100 * target,

@@ -46,7 +46,7 @@ std::string error_of(const std::string &text)
     return "";
 }
 
-}  // namespace
+} // namespace
 
 TEST(CalibrationScene, EveryKeyIsRead)
 {
@@ -96,19 +96,22 @@ TEST(CalibrationScene, EveryBadValueNamesItsKey)
     } cases[] = {
         {"rect_m = [0.05, 0.05, 0.30, 0.30]", "rect_m = [0.30, 0.05, 0.05, 0.30]",
          "small.toml: active_area.rect_m: needs x0 < x1 and y0 < y1"},
-        {"frame_margin_m = 0.01", "frame_margin_m = -1", "small.toml: active_area.frame_margin_m: must be >= 0, got -1"},
+        {"frame_margin_m = 0.01", "frame_margin_m = -1",
+         "small.toml: active_area.frame_margin_m: must be >= 0, got -1"},
         {"count = 8", "count = 40", "small.toml: exciters.count: must lie in [1, 32], got 40"},
         {"placement = \"random\"", "placement = \"spiral\"",
          "small.toml: exciters.placement: unknown value \"spiral\" (known: random, regular, fixed)"},
         {"placement = \"random\"", "placement = \"fixed\"",
          "small.toml: exciters.positions_m: missing (required with placement = \"fixed\"): [[x, y], ...] in metres"},
         {"seed = 3", "seed = -3", "small.toml: exciters.seed: must be >= 0, got -3"},
-        {"force_full_scale_n = 0.5", "force_full_scale_n = 0", "small.toml: exciters.force_full_scale_n: must be > 0, got 0"},
+        {"force_full_scale_n = 0.5", "force_full_scale_n = 0",
+         "small.toml: exciters.force_full_scale_n: must be > 0, got 0"},
         {"restarts = 2", "restarts = 0", "small.toml: exciters.restarts: must lie in [1, 1000], got 0"},
         {"grid = [2, 2]", "grid = [2.5, 2]", "small.toml: foci.grid: needs whole numbers >= 1 and at most 1024 foci"},
         {"grid = [2, 2]", "grid = [2, 2]\npoints_m = [[0.1, 0.1]]",
          "small.toml: foci.points_m: give exactly one of grid = [nx, ny], pitch_m = p or points_m = [[x, y], ...]"},
-        {"grid = [2, 2]", "points_m = [[0.1, 0.1], [0.2]]", "small.toml: foci.points_m: entry 1 must be an [x, y] pair in metres"},
+        {"grid = [2, 2]", "points_m = [[0.1, 0.1], [0.2]]",
+         "small.toml: foci.points_m: entry 1 must be an [x, y] pair in metres"},
         {"grid = [2, 2]", "points_m = [[0.1, 0.1], [0.2, 0.2]]\nids = [1, 1]",
          "small.toml: foci.ids: must be distinct integers in [0, 4294967295]"},
         {"shape = \"hann_burst\"", "shape = \"square\"",
@@ -121,7 +124,8 @@ TEST(CalibrationScene, EveryBadValueNamesItsKey)
          "small.toml: calibration.output_rate_hz: must be a whole number of Hz in [8000, 384000], got 44100.5"},
         {"threshold_m = 5e-6", "threshold_m = 5e-6\nsample_format = \"f32\"",
          "small.toml: calibration.sample_format: unknown format \"f32\" (known: s16)"},
-        {"threshold_m = 5e-6", "threshold_m = 5e-6\ndither = 1", "small.toml: calibration.dither: must be true or false"},
+        {"threshold_m = 5e-6", "threshold_m = 5e-6\ndither = 1",
+         "small.toml: calibration.dither: must be true or false"},
         {"threshold_m = 5e-6", "threshold_m = 5e-6\naccuracy = 2",
          "small.toml: calibration.accuracy: is a relative error, must lie in (0, 1), got 2"},
         {"threshold_m = 5e-6", "threshold_m = 5e-6\nwindow = 1", "small.toml: calibration.window: unknown key"},
@@ -181,7 +185,7 @@ TEST(Calibration, EndToEndEveryFocusForms)
         // The seed's criterion: the focus crosses the threshold, the other foci never do.
         EXPECT_TRUE(m.crosses_threshold);
         EXPECT_TRUE(m.others_below_threshold) << m.max_other_foci_m;
-        EXPECT_GT(m.field_contrast_db, 0.0);  // the focus is the largest displacement on the plate
+        EXPECT_GT(m.field_contrast_db, 0.0); // the focus is the largest displacement on the plate
         EXPECT_GT(m.spot_diameter_m, 0.5 * lambda_half);
         EXPECT_LT(m.spot_diameter_m, 2.5 * lambda_half);
         // It forms at the instant time reversal predicts (within one pulse length).
@@ -268,7 +272,7 @@ TEST(Calibration, Fig4RandomPlacementFocusesBetterThanTheRegularOne)
         return input_of(text, name);
     };
     pipeline::CalibrationInput random = read("paper-fig4-random.toml");
-    random.exciters.iterations = 400;  // a shorter search than the scene's
+    random.exciters.iterations = 400; // a shorter search than the scene's
     const pipeline::CalibrationResult r = pipeline::calibrate(random);
     const pipeline::CalibrationResult g = pipeline::calibrate(read("paper-fig4-regular.toml"));
     ASSERT_EQ(r.verification.foci.size(), 1u);

@@ -84,7 +84,7 @@ std::string refusal(const std::string &text)
     return "";
 }
 
-}  // namespace
+} // namespace
 
 TEST(FocusSubset, FociThatFitAreAllKeptInSceneOrder)
 {
@@ -119,10 +119,10 @@ TEST(FocusSubset, DenseGridIsDeterministicBoundedAndCovered)
         SCOPED_TRACE("cap " + std::to_string(cap));
         const pipeline::FocusSubset s = pipeline::farthest_point_subset(g, cap);
         ASSERT_EQ(s.members.size(), cap);
-        EXPECT_EQ(pipeline::farthest_point_subset(g, cap).members, s.members);  // deterministic
+        EXPECT_EQ(pipeline::farthest_point_subset(g, cap).members, s.members); // deterministic
         std::vector<std::size_t> sorted = s.members;
         std::sort(sorted.begin(), sorted.end());
-        EXPECT_EQ(std::unique(sorted.begin(), sorted.end()), sorted.end());  // no focus twice
+        EXPECT_EQ(std::unique(sorted.begin(), sorted.end()), sorted.end()); // no focus twice
         // Every focus within the stated radius of a member (brute force) ...
         for (const Point &p : g) {
             double near = 1e9;
@@ -170,10 +170,10 @@ TEST(FocusSubset, CapFollowsTheContrastModelMemory)
     // Fig. 7: 464 sites, 744 lags: the default 9 take 464 x 81 x 744 x 4 B =
     // 112 MB; 13 would take 233 MB, 14 over the 256 MiB bound (271 MB).
     EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 464, 744), 9u);
-    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 4 * 464, 744), 6u);   // 4x the sites: 13 / 2
-    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 40, 200), 9u);        // small model: the default
-    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 1e6, 1e4), 4u);       // never below 4
-    EXPECT_EQ(pipeline::placement_focus_cap(7u, 1e6, 1e4), 7u);                 // the scene's key wins
+    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 4 * 464, 744), 6u); // 4x the sites: 13 / 2
+    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 40, 200), 9u);      // small model: the default
+    EXPECT_EQ(pipeline::placement_focus_cap(std::nullopt, 1e6, 1e4), 4u);     // never below 4
+    EXPECT_EQ(pipeline::placement_focus_cap(7u, 1e6, 1e4), 7u);               // the scene's key wins
     EXPECT_DOUBLE_EQ(pipeline::contrast_model_lags(0.2, 0.3, 2866), 172 + 573 - 1);
 }
 
@@ -264,10 +264,9 @@ TEST(DenseCalibration, PitchGridOfMoreFociThanTheSubsetEndToEnd)
     ASSERT_EQ(K, 25u);
     // Count the placement simulations as they run (one progress call each).
     std::size_t placement_runs = 0;
-    const pipeline::CalibrationResult r = pipeline::calibrate(in, [&](const std::string &stage, size_t, size_t) {
-        placement_runs += stage == "simulate";
-    });
-    EXPECT_EQ(placement_runs, 4u);  // the cap: 4 foci, no probe points (a grid of 25 samples the field)
+    const pipeline::CalibrationResult r = pipeline::calibrate(
+        in, [&](const std::string &stage, size_t, size_t) { placement_runs += stage == "simulate"; });
+    EXPECT_EQ(placement_runs, 4u); // the cap: 4 foci, no probe points (a grid of 25 samples the field)
     EXPECT_EQ(r.placement.simulations, placement_runs);
     EXPECT_EQ(r.placement.focus_subset.size(), 4u);
     EXPECT_EQ(r.signals.size(), K);

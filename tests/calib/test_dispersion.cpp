@@ -50,17 +50,14 @@ double r_of(const Material &m)
     return 1 / (lambda_over_mu + 2);
 }
 
-double shear_speed(const Material &m)
-{
-    return std::sqrt(m.youngs_pa / (2 * (1 + m.poisson) * m.density_kg_m3));
-}
+double shear_speed(const Material &m) { return std::sqrt(m.youngs_pa / (2 * (1 + m.poisson) * m.density_kg_m3)); }
 
 // Rayleigh speed from xi^3 - 8 xi^2 + (24 - 16 r) xi - 16 (1 - r) = 0,
 // xi = (c/c_T)^2, the root in (0, 1).
 double rayleigh_from_cubic(const Material &m)
 {
     const double r = r_of(m);
-    Eigen::Vector4d coeffs(-16 * (1 - r), 24 - 16 * r, -8, 1);  // ascending powers
+    Eigen::Vector4d coeffs(-16 * (1 - r), 24 - 16 * r, -8, 1); // ascending powers
     Eigen::PolynomialSolver<double, 3> solver;
     solver.compute(coeffs);
     std::vector<double> roots;
@@ -80,7 +77,7 @@ int count_below(const std::vector<double> &cutoffs, double f)
     return n;
 }
 
-}  // namespace
+} // namespace
 
 TEST(Dispersion, A0TendsToKirchhoffWithTheHandDerivedCorrection)
 {
@@ -141,7 +138,7 @@ TEST(Dispersion, A0MeetsKirchhoffToSecondOrder)
             const double rel = a0_phase_velocity(m, d, f) / kirchhoff_phase_velocity(m, d, f) - 1;
             EXPECT_NEAR((rel - A1 * e) / (A2 * e * e), 1.0, 40 * e) << m.name << " e=" << e;
             const double third = (rel - A1 * e - A2 * e * e) / (e * e * e);
-            if (!std::isnan(prev_third)) {  // the remainder is O(e^3): a constant to O(e)
+            if (!std::isnan(prev_third)) { // the remainder is O(e^3): a constant to O(e)
                 EXPECT_NEAR(third / prev_third, 1.0, 0.05) << m.name << " e=" << e;
             }
             prev_third = third;
@@ -189,7 +186,7 @@ struct LongDoubleA0 {
     }
 };
 
-}  // namespace
+} // namespace
 
 TEST(Dispersion, RayleighSpeedMatchesTheCubic)
 {
@@ -242,7 +239,8 @@ TEST(Dispersion, HigherModesAppearAtTheAnalyticCutoffs)
             std::vector<double> from_lib = cutoff_frequencies(m, d, fam, 8 * fT);
             for (double fc : expected) {
                 if (fc <= 8 * fT) {
-                    EXPECT_TRUE(std::any_of(from_lib.begin(), from_lib.end(), [&](double c) { return std::abs(c / fc - 1) < 1e-12; }))
+                    EXPECT_TRUE(std::any_of(from_lib.begin(), from_lib.end(),
+                                            [&](double c) { return std::abs(c / fc - 1) < 1e-12; }))
                         << m.name << " cut-off " << fc;
                 }
             }
@@ -257,7 +255,8 @@ TEST(Dispersion, HigherModesAppearAtTheAnalyticCutoffs)
                 const double k8 = (forward ? above : below).back().wavenumber_rad_m;
                 EXPECT_LT(k8 * d, 0.05) << m.name << " " << fc << " Hz";
                 // k^2 grows linearly with the distance to the cut-off.
-                const double k10 = solve_family(m, d, fc * (1 + (forward ? 1e-10 : -1e-10)), fam).back().wavenumber_rad_m;
+                const double k10 =
+                    solve_family(m, d, fc * (1 + (forward ? 1e-10 : -1e-10)), fam).back().wavenumber_rad_m;
                 EXPECT_NEAR(k8 / k10, 10.0, 0.05) << m.name << " " << fc << " Hz";
             }
         }
@@ -286,7 +285,7 @@ TEST(Dispersion, GroupVelocityMatchesFiniteDifferencesOfK)
                 };
                 const ModePoint *a = same(lo), *b = same(hi);
                 if (!a || !b || std::abs(p.group_velocity_m_s) < 1e-3 * m.ct_m_s())
-                    continue;  // at a cut-off or a zero-group-velocity point
+                    continue; // at a cut-off or a zero-group-velocity point
                 const double fd_cg = 2 * pi * 2 * df / (b->wavenumber_rad_m - a->wavenumber_rad_m);
                 EXPECT_NEAR(p.group_velocity_m_s / fd_cg, 1.0, 1e-6) << m.name << " " << p.name() << " f=" << f;
             }
@@ -318,7 +317,7 @@ TEST(Dispersion, DenseSweepHasNoNaNAndNoMissedOrSpuriousRoots)
                     EXPECT_LE(std::abs(p.group_velocity_m_s), m.cl_m_s() * (1 + 1e-9)) << m.name << " " << p.name();
                     EXPECT_NEAR(p.wavelength_m * f / p.phase_velocity_m_s, 1.0, 1e-12);
                 }
-                for (std::size_t k = 1; k < v.size(); ++k)  // ranked by increasing phase speed
+                for (std::size_t k = 1; k < v.size(); ++k) // ranked by increasing phase speed
                     EXPECT_LT(v[k - 1].phase_velocity_m_s, v[k].phase_velocity_m_s);
             }
         }
@@ -351,9 +350,9 @@ TEST(Dispersion, SeedWavelengthsAt300HzOn2mm)
         // Kirchhoff: lambda = 2 pi sqrt(kappa / omega), too long by the
         // series of A0MeetsKirchhoffToSecondOrder (below 0.06 % here).
         const double lk = 2 * pi * std::sqrt(m.kappa(0.002) / (2 * pi * 300));
-        const double r = r_of(m), e = (pi * 0.002 / lk) * (pi * 0.002 / lk);  // (k_K h)^2
+        const double r = r_of(m), e = (pi * 0.002 / lk) * (pi * 0.002 / lk); // (k_K h)^2
         const double c_over_ck = 1 + (20 * r - 27) / 60 * e + (1680 * r * r - 13160 * r + 11559) / 50400 * e * e;
-        const double series = 1 / c_over_ck - 1;                   // c_K / c - 1, to O(e^3)
+        const double series = 1 / c_over_ck - 1; // c_K / c - 1, to O(e^3)
         const double err = lk / a0_wavelength(m, 0.002, 300) - 1;
         std::printf("[ measured ] Kirchhoff error at 300 Hz, 2 mm, %s: %+.4f %% (series %+.4f %%)\n", name, 100 * err,
                     100 * series);
@@ -375,13 +374,13 @@ TEST(Dispersion, KirchhoffOnePercentPointAndMindlin)
         auto err = [&](double fd) {
             return kirchhoff_phase_velocity(m, 0.002, fd / 0.002) / a0_phase_velocity(m, 0.002, fd / 0.002) - 1;
         };
-        double lo = 0.1, hi = 1000;  // Hz*m, err increasing
+        double lo = 0.1, hi = 1000; // Hz*m, err increasing
         for (int it = 0; it < 60; ++it) {
             const double mid = std::sqrt(lo * hi);
             (err(mid) < 0.01 ? lo : hi) = mid;
         }
-        std::printf("[ measured ] Kirchhoff error reaches 1 %% at f*d = %.2f kHz*mm for %s (docs/physics.md: %.1f)\n", lo,
-                    names[i], claims[i]);
+        std::printf("[ measured ] Kirchhoff error reaches 1 %% at f*d = %.2f kHz*mm for %s (docs/physics.md: %.1f)\n",
+                    lo, names[i], claims[i]);
         EXPECT_GT(lo, claims[i] / 1.5);
         EXPECT_LT(lo, claims[i] * 1.5);
         // Mindlin (pi^2/12) stays within 1 % at 10x that f*d, and under Kirchhoff's error everywhere below.
@@ -403,7 +402,8 @@ TEST(Dispersion, MindlinLimits)
         EXPECT_NEAR(mindlin_group_velocity(m, d, 0.005) / kirchhoff_group_velocity(m, d, 0.005), 1.0, 1e-7) << m.name;
         // High f*d: sqrt(k_s^2) c_T; with k_s^2 = (c_R/c_T)^2 that is the exact A0 limit.
         const double f = 1e4 * m.ct_m_s() / d;
-        EXPECT_NEAR(mindlin_phase_velocity(m, d, f, MindlinShear::rayleigh) / rayleigh_from_cubic(m), 1.0, 1e-4) << m.name;
+        EXPECT_NEAR(mindlin_phase_velocity(m, d, f, MindlinShear::rayleigh) / rayleigh_from_cubic(m), 1.0, 1e-4)
+            << m.name;
         EXPECT_NEAR(mindlin_phase_velocity(m, d, f) / (pi / std::sqrt(12.0) * shear_speed(m)), 1.0, 1e-4) << m.name;
         // Group velocity vs finite difference of k(omega).
         for (double fm : {1e-3, 0.2, 2.0}) {
@@ -477,7 +477,7 @@ std::vector<std::string> lines(const std::string &s)
     return out;
 }
 
-}  // namespace
+} // namespace
 
 TEST(DispersionCli, RangeGivesOneRowPerModeAndFrequency)
 {
@@ -488,7 +488,7 @@ TEST(DispersionCli, RangeGivesOneRowPerModeAndFrequency)
     EXPECT_NE(l[0].find("f_hz,mode,phase_velocity_m_s,group_velocity_m_s,wavelength_m"), std::string::npos);
     EXPECT_NE(l[0].find("kirchhoff_phase_velocity_m_s"), std::string::npos);
     EXPECT_NE(l[0].find("mindlin_phase_velocity_m_s"), std::string::npos);
-    EXPECT_EQ(l.size(), 1u + 27 * 3);  // 40..300 step 10 inclusive; A0, S0, SH0 only below 300 kHz
+    EXPECT_EQ(l.size(), 1u + 27 * 3); // 40..300 step 10 inclusive; A0, S0, SH0 only below 300 kHz
     // The 300 Hz A0 row: the seed's 161 mm.
     bool found = false;
     for (const std::string &row : l)
@@ -503,7 +503,8 @@ TEST(DispersionCli, RangeGivesOneRowPerModeAndFrequency)
 
 TEST(DispersionCli, ListCustomMaterialsAndModeFilter)
 {
-    const CliResult glass = run_cli({"--material", "glass", "--thickness", "0.002", "--freq", "300,100", "--modes", "a0"});
+    const CliResult glass =
+        run_cli({"--material", "glass", "--thickness", "0.002", "--freq", "300,100", "--modes", "a0"});
     const CliResult elastic = run_cli({"--density", "1590", "--youngs", "68.9e9", "--poisson", "0.16", "--thickness",
                                        "0.002", "--freq", "300,100", "--modes", "A0"});
     // The speeds glass's E, nu, rho imply, to 17 digits: the same solid.
@@ -511,11 +512,11 @@ TEST(DispersionCli, ListCustomMaterialsAndModeFilter)
     char cl[32], ct[32];
     std::snprintf(cl, sizeof cl, "%.17g", g.cl_m_s());
     std::snprintf(ct, sizeof ct, "%.17g", g.ct_m_s());
-    const CliResult speeds =
-        run_cli({"--density", "1590", "--cl", cl, "--ct", ct, "--thickness", "0.002", "--freq", "300,100", "--modes", "a0"});
+    const CliResult speeds = run_cli(
+        {"--density", "1590", "--cl", cl, "--ct", ct, "--thickness", "0.002", "--freq", "300,100", "--modes", "a0"});
     // Table I's printed speeds are another solid: its A0 is 1.9e-4 slower.
-    const CliResult printed = run_cli(
-        {"--density", "1590", "--cl", "6790", "--ct", "4321", "--thickness", "0.002", "--freq", "300,100", "--modes", "a0"});
+    const CliResult printed = run_cli({"--density", "1590", "--cl", "6790", "--ct", "4321", "--thickness", "0.002",
+                                       "--freq", "300,100", "--modes", "a0"});
     for (const CliResult *r : {&glass, &elastic, &speeds, &printed})
         ASSERT_EQ(r->code, 0) << r->err;
     ASSERT_EQ(lines(glass.out).size(), 3u);
@@ -572,8 +573,8 @@ TEST(DispersionCli, PlotFileIsWritten)
     for (const char *name : {"d.svg", "d.png"}) {
         const std::string path = (dir / name).string();
         std::filesystem::remove(path);
-        const CliResult r = run_cli({"--material", "acrylic,glass,steel", "--thickness", "0.002", "--freq", "10:1000:50",
-                                     "--modes", "a0", "--plot", path});
+        const CliResult r = run_cli({"--material", "acrylic,glass,steel", "--thickness", "0.002", "--freq",
+                                     "10:1000:50", "--modes", "a0", "--plot", path});
         EXPECT_EQ(r.code, 0) << r.err;
         EXPECT_GT(std::filesystem::file_size(path), 1000u) << path;
     }
@@ -587,10 +588,10 @@ TEST(DispersionCli, A0AgreesWithAnIndependentLongDoubleSolution)
     // tanh form of the antisymmetric relation within 1e-6 relative (the
     // residual changes sign between k (1 - 1e-6) and k (1 + 1e-6)), and a
     // separate long-double bisection of that form agrees to 1e-6.
-    const CliResult r = run_cli({"--material", "acrylic,glass,steel", "--thickness", "0.002", "--freq", "10:200000:x1.1",
-                                 "--modes", "a0"});
-    const CliResult top = run_cli({"--material", "acrylic,glass,steel", "--thickness", "0.002", "--freq", "200000",
-                                   "--modes", "a0"});
+    const CliResult r = run_cli(
+        {"--material", "acrylic,glass,steel", "--thickness", "0.002", "--freq", "10:200000:x1.1", "--modes", "a0"});
+    const CliResult top =
+        run_cli({"--material", "acrylic,glass,steel", "--thickness", "0.002", "--freq", "200000", "--modes", "a0"});
     ASSERT_EQ(r.code, 0) << r.err;
     ASSERT_EQ(top.code, 0) << top.err;
     std::vector<std::string> l = lines(r.out);
@@ -612,7 +613,8 @@ TEST(DispersionCli, A0AgreesWithAnIndependentLongDoubleSolution)
         worst = std::max(worst, dev);
         ++rows;
     }
-    EXPECT_EQ(rows, 3 * (104 + 1));  // 10 Hz * 1.1^n up to 181.6 kHz, and 200 kHz
-    std::printf("[ measured ] A0 wavenumber vs long-double tanh form, 10 Hz..200 kHz, 2 mm, 3 materials: max |dk/k| = %.2g\n",
-                worst);
+    EXPECT_EQ(rows, 3 * (104 + 1)); // 10 Hz * 1.1^n up to 181.6 kHz, and 200 kHz
+    std::printf(
+        "[ measured ] A0 wavenumber vs long-double tanh form, 10 Hz..200 kHz, 2 mm, 3 materials: max |dk/k| = %.2g\n",
+        worst);
 }

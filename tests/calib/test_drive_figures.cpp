@@ -22,18 +22,19 @@ TEST(DriveFigures, DriveEnergyAndOutOfBandFractionOfHandComputedSignals)
     const pipeline::CalibrationInput in = scene::calibration_input(scene_text::load("inverse.toml"), "inverse.toml");
     const double rate = 48000, edge = pipeline::pulse_max_frequency_hz(in.pulse);
     const unsigned C = 2;
-    const std::size_t n = 4800;  // 0.1 s: whole periods of both tones below
+    const std::size_t n = 4800; // 0.1 s: whole periods of both tones below
     // Channel 0: 1200 Hz (in band) at 10000 counts; channel 1: silent, then a tone above the band.
     const double f_hi = 480 * std::ceil(1.5 * edge / 480);
     std::vector<int16_t> s(n * C, 0);
     for (std::size_t i = 0; i < n; i++) {
         s[i * C] = static_cast<int16_t>(std::lround(10000 * std::sin(2 * std::numbers::pi * 1200 * double(i) / rate)));
-        s[i * C + 1] = static_cast<int16_t>(std::lround(5000 * std::sin(2 * std::numbers::pi * f_hi * double(i) / rate)));
+        s[i * C + 1] =
+            static_cast<int16_t>(std::lround(5000 * std::sin(2 * std::numbers::pi * f_hi * double(i) / rate)));
     }
     const pipeline::DriveFigures d = pipeline::drive_figures(in, s, C, rate, 2e-6);
-    const double F = 0.5 / 32767;  // N per count
+    const double F = 0.5 / 32767; // N per count
     const double e0 = 0.5 * (10000 * F) * (10000 * F) * 0.1, e1 = 0.5 * (5000 * F) * (5000 * F) * 0.1;
-    EXPECT_NEAR(d.energy_n2s, e0 + e1, 1e-3 * (e0 + e1));  // rounding to counts only
+    EXPECT_NEAR(d.energy_n2s, e0 + e1, 1e-3 * (e0 + e1)); // rounding to counts only
     EXPECT_NEAR(d.out_of_band_fraction, e1 / (e0 + e1), 1e-3);
     EXPECT_NEAR(d.peak_per_root_energy, 2e-6 / std::sqrt(e0 + e1), 1e-3 * 2e-6 / std::sqrt(e0 + e1));
 }
@@ -72,7 +73,7 @@ TEST(Radiation, SmallBaffledPistonAndATone)
         diff = std::max(diff, std::abs(p[s] - exact));
     }
     ASSERT_GT(peak, 0);
-    EXPECT_LT(diff, 0.01 * peak);  // float field, path differences of 0.04 mm over the patch
+    EXPECT_LT(diff, 0.01 * peak); // float field, path differences of 0.04 mm over the patch
 
     // A-weighting (IEC 61672-1 table): 0.0 dB at 1 kHz, -19.1 dB at 100 Hz, -3.2 dB at 500 Hz, +1.3 dB at 2.5 kHz.
     EXPECT_NEAR(20 * std::log10(pipeline::a_weighting(1000)), 0.0, 0.05);

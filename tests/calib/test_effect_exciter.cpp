@@ -47,7 +47,7 @@ cd lock_in(const std::vector<double> &x, double omega, double k, int periods, st
 }
 
 struct Driven {
-    std::vector<double> current, force, w;  // w[n]: plate displacement at the exciter at level n
+    std::vector<double> current, force, w; // w[n]: plate displacement at the exciter at level n
     double k = 0;
 };
 
@@ -55,7 +55,7 @@ struct Driven {
 // (the loss lets the plate reach its steady state).
 Driven drive_sine(double density, double thickness, double f, const ExciterSpec &e, double duration)
 {
-    Loss loss{100.0, 0.0};  // sigma0 = 100 1/s: transients fall 5e-5 in 0.1 s
+    Loss loss{100.0, 0.0}; // sigma0 = 100 1/s: transients fall 5e-5 in 0.1 s
     PlateParams p;
     const int nx = 30, ny = 25;
     const double h = 0.01;
@@ -78,17 +78,17 @@ Driven drive_sine(double density, double thickness, double f, const ExciterSpec 
     for (std::size_t n = 0; n < steps; ++n)
         d.current.push_back(std::sin(2 * pi * f * double(n) * d.k));
     ex->set_drive(d.current);
-    d.w.push_back(0.0);  // level 0
+    d.w.push_back(0.0); // level 0
     for (std::size_t n = 0; n < steps; ++n) {
         eng.step();
-        d.w.push_back(eng.receiver_value(r));  // level n + 1
+        d.w.push_back(eng.receiver_value(r)); // level n + 1
     }
-    d.w.pop_back();  // w[n] = level n, aligned with force[n] and current[n]
+    d.w.pop_back(); // w[n] = level n, aligned with force[n] and current[n]
     d.force = ex->forces();
     return d;
 }
 
-}  // namespace
+} // namespace
 
 TEST(EffectExciter, TransferPeaksAtResonanceWithGainQ)
 {
@@ -150,7 +150,7 @@ TEST(EffectExciter, PrecompensatedSignalDeliversTheWantedForceInBand)
         if (t >= 0 && t <= dur)
             wanted[n] = std::sin(2 * pi * fc * t) * 0.5 * (1 - std::cos(2 * pi * t / dur));
     }
-    const std::vector<double> drive = precompensate(wanted, rate, e);  // Bl i
+    const std::vector<double> drive = precompensate(wanted, rate, e); // Bl i
     // Play `drive` through M z'' + c z' + k z = -u(t), F = -M z'' (RK4, 16 substeps, linear u).
     auto play = [&](const std::vector<double> &u) {
         std::vector<double> force(u.size());
@@ -187,7 +187,7 @@ TEST(EffectExciter, PrecompensatedSignalDeliversTheWantedForceInBand)
     const double with = rel_error(play(drive));
     const double without = rel_error(play(wanted));
     EXPECT_LT(with, 0.01);
-    EXPECT_GT(without, 0.1);  // the exciter alone does distort this pulse
+    EXPECT_GT(without, 0.1); // the exciter alone does distort this pulse
 }
 
 TEST(EffectExciter, RefusesUnusableParameters)

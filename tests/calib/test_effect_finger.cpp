@@ -30,10 +30,7 @@ struct SsPlate {
     double rho_d = op->params().material.density_kg_m3 * op->params().thickness_m;
 };
 
-double mode_shape(int p, int q, int i, int j)
-{
-    return std::sin(p * pi * i / nx) * std::sin(q * pi * j / ny);
-}
+double mode_shape(int p, int q, int i, int j) { return std::sin(p * pi * i / nx) * std::sin(q * pi * j / ny); }
 
 double mode_lambda(const SsPlate &s, int p, int q)
 {
@@ -80,7 +77,8 @@ double loaded_lambda(const SsPlate &s, double m, double spring, double x, double
         return 1 - (lam * m - spring) * sum;
     };
     // Mass lowers lambda_11 (root in (0, l1)), a spring raises it (root in (l1, l2)).
-    double lo = spring > 0 ? l1 * (1 + 1e-12) : 1e-9 * l1, hi = spring > 0 ? mode_lambda(s, 2, 1) * (1 - 1e-12) : l1 * (1 - 1e-12);
+    double lo = spring > 0 ? l1 * (1 + 1e-12) : 1e-9 * l1,
+           hi = spring > 0 ? mode_lambda(s, 2, 1) * (1 - 1e-12) : l1 * (1 - 1e-12);
     double glo = g(lo);
     for (int it = 0; it < 200; ++it) {
         const double mid = 0.5 * (lo + hi);
@@ -98,7 +96,8 @@ double loaded_lambda(const SsPlate &s, double m, double spring, double x, double
 // Starts the plate at rest in mode (1,1), runs, and returns the modal
 // coordinate of mode (1,1) per step.
 template <typename T = double>
-std::vector<double> run_mode(const SsPlate &s, const FingerSpec &f, std::size_t steps, std::vector<double> *energy = nullptr)
+std::vector<double> run_mode(const SsPlate &s, const FingerSpec &f, std::size_t steps,
+                             std::vector<double> *energy = nullptr)
 {
     PlateEngine<T> eng(s.op, s.k);
     std::vector<double> shape(s.op->grid().node_count());
@@ -144,21 +143,18 @@ double crossing_omega(const std::vector<double> &a, double k)
     return pi * count / (last - first);
 }
 
-double omega_of_lambda(double lambda, double k)
-{
-    return 2 / k * std::asin(k * std::sqrt(lambda) / 2);
-}
+double omega_of_lambda(double lambda, double k) { return 2 / k * std::asin(k * std::sqrt(lambda) / 2); }
 
-}  // namespace
+} // namespace
 
 TEST(EffectFinger, PointMassShiftsFirstModeByTheAnalyticAmount)
 {
     const SsPlate s;
     const double x0 = 9.3 * h, y0 = 7.6 * h;
-    const double modal_mass = s.rho_d * h * h * (nx / 2.0) * (ny / 2.0);  // of sin x sin (max 1)
+    const double modal_mass = s.rho_d * h * h * (nx / 2.0) * (ny / 2.0); // of sin x sin (max 1)
     const double phi0 = shape_at(s, x0, y0);
     const double omega0 = omega_of_lambda(mode_lambda(s, 1, 1), s.k);
-    for (double ratio : {0.004, 0.02, 0.1}) {  // m phi0^2 / M_modal
+    for (double ratio : {0.004, 0.02, 0.1}) { // m phi0^2 / M_modal
         FingerSpec f;
         f.mass_kg = ratio * modal_mass / (phi0 * phi0);
         f.x_m = x0;
@@ -179,15 +175,15 @@ TEST(EffectFinger, PointMassShiftsFirstModeByTheAnalyticAmount)
 TEST(EffectFinger, SpringDamperRaisesAndDampsTheModeAsPredicted)
 {
     const SsPlate s;
-    const double x0 = 12.5 * h, y0 = 9.0 * h;  // between two nodes
+    const double x0 = 12.5 * h, y0 = 9.0 * h; // between two nodes
     const double modal_mass = s.rho_d * h * h * (nx / 2.0) * (ny / 2.0);
     const double phi0 = shape_at(s, x0, y0);
     const double lambda0 = mode_lambda(s, 1, 1), omega0 = std::sqrt(lambda0);
     FingerSpec f;
     f.x_m = x0;
     f.y_m = y0;
-    f.stiffness_n_m = 0.02 * modal_mass * lambda0 / (phi0 * phi0);  // +2 % in lambda, +1 % in omega
-    f.damping_n_s_m = 2 * modal_mass * 2e-3 * omega0 / (phi0 * phi0);  // gamma = 2e-3 omega0
+    f.stiffness_n_m = 0.02 * modal_mass * lambda0 / (phi0 * phi0);    // +2 % in lambda, +1 % in omega
+    f.damping_n_s_m = 2 * modal_mass * 2e-3 * omega0 / (phi0 * phi0); // gamma = 2e-3 omega0
     const std::size_t period = std::size_t(2 * pi / omega0 / s.k);
     const std::vector<double> a = run_mode(s, f, scaled(40.0 * double(period)));
 
@@ -260,11 +256,11 @@ TEST(EffectFinger, RefusesBadInput)
     f.mass_kg = -1;
     EXPECT_THROW(FingerExtension(eng, f), std::invalid_argument);
     f.mass_kg = 0.001;
-    f.stiffness_n_m = 1e12;  // far beyond what the time step allows
+    f.stiffness_n_m = 1e12; // far beyond what the time step allows
     EXPECT_THROW(FingerExtension(eng, f), std::invalid_argument);
     f.stiffness_n_m = 0;
-    f.x_m = 1.0;  // off the plate
+    f.x_m = 1.0; // off the plate
     EXPECT_THROW(FingerExtension(eng, f), std::invalid_argument);
-    f.x_m = 0;  // on the held edge only
+    f.x_m = 0; // on the held edge only
     EXPECT_THROW(FingerExtension(eng, f), std::invalid_argument);
 }

@@ -42,10 +42,7 @@ constexpr bool asan = true;
 constexpr bool asan = false;
 #endif
 
-pipeline::CalibrationInput input_of(const std::string &toml)
-{
-    return scene::calibration_input(toml, "scene.toml");
-}
+pipeline::CalibrationInput input_of(const std::string &toml) { return scene::calibration_input(toml, "scene.toml"); }
 
 std::vector<std::vector<int16_t>> samples_of(const pipeline::CalibrationResult &r)
 {
@@ -87,7 +84,7 @@ double envelope_peak_time(const std::vector<double> &trace, double k, double f, 
     return (double(best) + 1 + shift) * k;
 }
 
-}  // namespace
+} // namespace
 
 // The finger composed into every engine variant: the force it puts on the
 // plate each step is its law, -(m w_tt + c w_t + s w), applied to the plate's
@@ -100,12 +97,13 @@ TEST(EffectPipeline, FingerForceFollowsThePlateAtItsPoint)
         const char *name;
         Precision precision;
         bool thick;
-        double tolerance;  // of the force identity, relative to max |f|
+        double tolerance; // of the force identity, relative to max |f|
     };
     // float: W ~ 1e-9 m in a float field; the second difference over k^2
     // loses ~1e-7 / (omega k)^2 ~ 1e-4 of the force.
-    for (const Variant v : {Variant{"float", Precision::f32, false, 2e-3}, Variant{"double", Precision::f64, false, 1e-8},
-                            Variant{"thick_plate", Precision::f64, true, 1e-8}}) {
+    for (const Variant v :
+         {Variant{"float", Precision::f32, false, 2e-3}, Variant{"double", Precision::f64, false, 1e-8},
+          Variant{"thick_plate", Precision::f64, true, 1e-8}}) {
         SCOPED_TRACE(v.name);
         auto op = make_plate(30, 22, 0.005, Edges::all(EdgeKind::simply_supported));
         SimulationOptions o;
@@ -121,7 +119,7 @@ TEST(EffectPipeline, FingerForceFollowsThePlateAtItsPoint)
             if (with_finger) {
                 EXPECT_EQ(sim.add_finger(finger), 0u);
             }
-            const std::size_t steps = sim.steps_for(asan ? 1.2e-3 : 2.5e-3);  // the burst peaks at 0.75 ms
+            const std::size_t steps = sim.steps_for(asan ? 1.2e-3 : 2.5e-3); // the burst peaks at 0.75 ms
             sim.run(steps);
             const std::vector<double> &w = sim.traces()[0];
             ASSERT_EQ(w.size(), steps);
@@ -136,16 +134,17 @@ TEST(EffectPipeline, FingerForceFollowsThePlateAtItsPoint)
             double fmax = 0, err = 0, diff = 0, wmax = 0;
             for (std::size_t n = 2; n < steps; ++n) {
                 // traces[n] is w^{n+1}; the force of step n uses w^{n+1}, w^n, w^{n-1}.
-                const double law = -(finger.mass_kg * (w[n] - 2 * w[n - 1] + w[n - 2]) / (k * k) +
-                                     finger.damping_n_s_m * (w[n] - w[n - 2]) / (2 * k) + finger.stiffness_n_m * w[n - 1]);
+                const double law =
+                    -(finger.mass_kg * (w[n] - 2 * w[n - 1] + w[n - 2]) / (k * k) +
+                      finger.damping_n_s_m * (w[n] - w[n - 2]) / (2 * k) + finger.stiffness_n_m * w[n - 1]);
                 fmax = std::max(fmax, std::abs(f[n]));
                 err = std::max(err, std::abs(f[n] - law));
                 diff = std::max(diff, std::abs(w[n] - free_trace[n]));
                 wmax = std::max(wmax, std::abs(free_trace[n]));
             }
-            EXPECT_GT(fmax, 1e-3);  // it acts (a 1 N burst; a 2 g mass at 3 kHz is ~1/3 of the point impedance)
+            EXPECT_GT(fmax, 1e-3); // it acts (a 1 N burst; a 2 g mass at 3 kHz is ~1/3 of the point impedance)
             EXPECT_LT(err, v.tolerance * fmax) << "max |f| " << fmax;
-            EXPECT_GT(diff, 0.05 * wmax);  // and it changes the plate's motion there
+            EXPECT_GT(diff, 0.05 * wmax); // and it changes the plate's motion there
         }
     }
 }
@@ -162,7 +161,7 @@ TEST(EffectPipeline, ThickPlateVariantUsesTheMindlinBound)
     Simulation sim(op, o);
     const mindlin::MindlinOperator ref(op->params(), op->grid());
     EXPECT_NEAR(sim.time_step_s(), 0.9 * ref.max_time_step(), 1e-9 * ref.max_time_step());
-    EXPECT_GT(sim.time_step_s(), 1.5 * 0.9 * op->max_time_step());  // h < d: longer than Kirchhoff's
+    EXPECT_GT(sim.time_step_s(), 1.5 * 0.9 * op->max_time_step()); // h < d: longer than Kirchhoff's
     EXPECT_EQ(sim.precision(), Precision::f64);
     EXPECT_TRUE(sim.thick_plate());
     // Lossless leapfrog: the plate's energy is constant once the source is off.
@@ -176,7 +175,7 @@ TEST(EffectPipeline, ThickPlateVariantUsesTheMindlinBound)
     EXPECT_NEAR(sim.energy(), e0, 1e-9 * e0);
     const std::vector<double> snap = sim.snapshot();
     ASSERT_EQ(snap.size(), op->grid().node_count());
-    EXPECT_EQ(snap[op->grid().node(0, 0)], 0.0);  // clamped corner
+    EXPECT_EQ(snap[op->grid().node(0, 0)], 0.0); // clamped corner
     // The receiver reads the snapshot's bilinear value at its point (a node here).
     EXPECT_NEAR(sim.traces()[0].back(), snap[op->grid().node(15, 10)], 1e-15);
 
@@ -254,11 +253,12 @@ TEST(EffectPipeline, ThickPlateArrivalFollowsMindlinGroupVelocity)
     }
     RecordProperty("cg_kirchhoff_measured", std::to_string(cg[0]));
     RecordProperty("cg_mindlin_measured", std::to_string(cg[1]));
-    std::printf("group velocity at %.0f Hz, d = %.0f mm: Kirchhoff %.1f (continuum %.1f), Mindlin %.1f (continuum %.1f), "
-                "exact A0 %.1f m/s\n",
-                f, d * 1e3, cg[0], cg_k, cg[1], cg_m, cg_a0);
-    ASSERT_GT(cg_k / cg_m, 1.1);  // the test discriminates: the two models differ by more than the tolerance
-    const double tol_m = asan ? 0.05 : 0.03;  // h = 3.5 mm under ASan: (beta h)^2 / 6 ~ 4 %
+    std::printf(
+        "group velocity at %.0f Hz, d = %.0f mm: Kirchhoff %.1f (continuum %.1f), Mindlin %.1f (continuum %.1f), "
+        "exact A0 %.1f m/s\n",
+        f, d * 1e3, cg[0], cg_k, cg[1], cg_m, cg_a0);
+    ASSERT_GT(cg_k / cg_m, 1.1);             // the test discriminates: the two models differ by more than the tolerance
+    const double tol_m = asan ? 0.05 : 0.03; // h = 3.5 mm under ASan: (beta h)^2 / 6 ~ 4 %
     EXPECT_NEAR(cg[1], cg_m, tol_m * cg_m);
     EXPECT_NEAR(cg[0], cg_k, 0.10 * cg_k);
     EXPECT_NEAR(cg[0] / cg[1], cg_k / cg_m, 0.10 * cg_k / cg_m);
@@ -269,7 +269,7 @@ namespace {
 // A small acrylic plate at 2 kHz: four fixed exciters, one focus.
 const std::string finger_scene = scene_text::load("effect-finger.toml");
 
-}  // namespace
+} // namespace
 
 // The finger is composed in the verification (playback) runs only: the
 // calibration's drive signals have the same shape with or without it (only
@@ -288,7 +288,7 @@ TEST(EffectPipeline, FingerInVerificationDampsTheFocus)
     in_f.effects.finger = effects::FingerSpec{0.003, 0.0, 4.0, 0.055, 0.048};
     const pipeline::CalibrationResult pressed = pipeline::calibrate(in_f);
     ASSERT_EQ(pressed.signals.size(), 1u);
-    EXPECT_EQ(pressed.signals[0].normalized, bare.signals[0].normalized);  // not in the calibration runs
+    EXPECT_EQ(pressed.signals[0].normalized, bare.signals[0].normalized); // not in the calibration runs
     // The bare table's signals played with the finger pressing.
     const pipeline::Verification v =
         pipeline::verify_signals(in_f, bare.exciters, samples_of(bare), in.calibration.output_rate_hz, {}, false);
@@ -310,7 +310,7 @@ namespace {
 // Thick glass at f*d ~ 200 kHz mm: Kirchhoff is ~10 % fast here.
 const std::string thick_scene = scene_text::load("effect-thick.toml");
 
-}  // namespace
+} // namespace
 
 // With thick_plate on, the whole pipeline (calibration and verification)
 // runs on the Mindlin engine and refocuses at the focus. Played on a Kirchhoff plate (the model the correction
@@ -326,12 +326,13 @@ TEST(EffectPipeline, ThickPlatePipelineRefocuses)
     std::printf("thick plate: focal peak %.4g m at %.4g ms, field contrast %.2f dB\n", m.peak_m, m.lead_time_s * 1e3,
                 m.field_contrast_db);
     EXPECT_GT(m.peak_m, 0);
-    EXPECT_GT(m.field_contrast_db, 0.0);  // the focus is the largest |w| on the plate (beyond lambda/2) at its instant
+    EXPECT_GT(m.field_contrast_db, 0.0); // the focus is the largest |w| on the plate (beyond lambda/2) at its instant
 
     pipeline::CalibrationInput kirchhoff = in;
     kirchhoff.effects.thick_plate = false;
     const pipeline::Verification v =
         pipeline::verify_signals(kirchhoff, r.exciters, samples_of(r), in.calibration.output_rate_hz, {}, false);
-    std::printf("same signals on Kirchhoff: focal peak %.4g m (ratio %.3f)\n", v.foci[0].peak_m, v.foci[0].peak_m / m.peak_m);
+    std::printf("same signals on Kirchhoff: focal peak %.4g m (ratio %.3f)\n", v.foci[0].peak_m,
+                v.foci[0].peak_m / m.peak_m);
     EXPECT_LT(v.foci[0].peak_m, 0.9 * m.peak_m);
 }

@@ -19,8 +19,8 @@ using namespace calib::report;
 
 namespace {
 
-using scene_text::replace;
 using scene_text::error_of;
+using scene_text::replace;
 
 const std::string plate = R"(
 [plate]
@@ -53,7 +53,7 @@ precompensate = false
 max_boost_db = 12
 )";
 
-}  // namespace
+} // namespace
 
 TEST(EffectScene, EveryKeyIsRead)
 {
@@ -84,7 +84,7 @@ TEST(EffectScene, AbsentSectionMeansEverythingOffButPlateLoss)
     EXPECT_FALSE(s.effects.thick_plate);
     EXPECT_FALSE(s.effects.finger);
     EXPECT_FALSE(s.effects.exciter);
-    EXPECT_TRUE(build_plate(s).plate->params().loss.active());  // [plate.loss] keeps working
+    EXPECT_TRUE(build_plate(s).plate->params().loss.active()); // [plate.loss] keeps working
     const Scene off = parse_scene(plate + "[effects]\nloss = false\n", "scene.toml");
     EXPECT_FALSE(build_plate(off).plate->params().loss.active());
 }
@@ -101,7 +101,8 @@ TEST(EffectScene, BadKeysAndValuesAreRefusedNamingTheKey)
         {replace(all, "position_m = [0.2, 0.15]", ""), "scene.toml: effects.finger.position_m: missing"},
         {replace(all, "moving_mass_kg = 0.03", "moving_mass_kg = 0"), "scene.toml: effects.exciter.moving_mass_kg:"},
         {replace(all, "stiffness_n_m = 1.0e5", ""), "scene.toml: effects.exciter.stiffness_n_m: missing"},
-        {replace(all, "max_boost_db = 12", "max_boost_db = 100"), "scene.toml: effects.exciter.max_boost_db: must lie in"},
+        {replace(all, "max_boost_db = 12", "max_boost_db = 100"),
+         "scene.toml: effects.exciter.max_boost_db: must lie in"},
         {replace(all, "precompensate = false", "precompensate = \"no\""),
          "scene.toml: effects.exciter.precompensate: must be true or false"},
         {replace(all, "[plate.loss]\nfrequencies_hz = [100, 1000]\nt60_s = [0.2, 0.1]\n", ""),

@@ -31,7 +31,7 @@ std::shared_ptr<MindlinOperator> mindlin_plate(int nx, int ny, double h, double 
     p.size_x_m = nx * h;
     p.size_y_m = ny * h;
     p.thickness_m = d;
-    p.material = physics::material_from_elastic(2500.0, 70e9, 0.22, "glass");  // self-consistent
+    p.material = physics::material_from_elastic(2500.0, 70e9, 0.22, "glass"); // self-consistent
     p.edges = edges;
     return std::make_shared<MindlinOperator>(p, Grid{nx, ny, h});
 }
@@ -92,7 +92,7 @@ double mindlin_omega(const physics::Material &m, double d, double beta)
     return 2 * pi * std::sqrt(lo * hi);
 }
 
-}  // namespace
+} // namespace
 
 TEST(EffectThickPlate, PhaseVelocityFromTheSimulationFollowsExactA0WhereKirchhoffFails)
 {
@@ -110,7 +110,8 @@ TEST(EffectThickPlate, PhaseVelocityFromTheSimulationFollowsExactA0WhereKirchhof
         const double bdx = 2 / h * std::sin(bx * h / 2), bdy = 2 / h * std::sin(by * h / 2);
         const double om_disc = mindlin_omega(mat, d, std::hypot(bdx, bdy));
         const double om_discrete = 2 / k * std::asin(k * om_disc / 2);
-        const double alpha = 1 - mat.density_kg_m3 * d * om_disc * om_disc / (op->shear_stiffness() * (bdx * bdx + bdy * bdy));
+        const double alpha =
+            1 - mat.density_kg_m3 * d * om_disc * om_disc / (op->shear_stiffness() * (bdx * bdx + bdy * bdy));
         MindlinEngine eng(op, k);
         const Eigen::VectorXd s = mode_state(*op, p, q, alpha);
         eng.set_state(s, s);
@@ -141,8 +142,9 @@ TEST(EffectThickPlate, PhaseVelocityFromTheSimulationFollowsExactA0WhereKirchhof
 
 TEST(EffectThickPlate, EnergyIsConservedForSupportedAndClampedEdges)
 {
-    for (Edges e : {Edges::all(EdgeKind::simply_supported), Edges::all(EdgeKind::clamped),
-                    Edges{EdgeKind::clamped, EdgeKind::simply_supported, EdgeKind::simply_supported, EdgeKind::clamped}}) {
+    for (Edges e :
+         {Edges::all(EdgeKind::simply_supported), Edges::all(EdgeKind::clamped),
+          Edges{EdgeKind::clamped, EdgeKind::simply_supported, EdgeKind::simply_supported, EdgeKind::clamped}}) {
         auto op = mindlin_plate(14, 11, 0.002, 0.006, e);
         MindlinEngine eng(op, 0.99 * op->max_time_step());
         std::mt19937_64 rng(7);
@@ -163,7 +165,7 @@ TEST(EffectThickPlate, EnergyIsConservedForSupportedAndClampedEdges)
         }
         SCOPED_TRACE(describe(e));
         EXPECT_LT(worst, 1e-11);
-        EXPECT_LT(peak, 1e-2);  // bounded at 0.99 x its own bound
+        EXPECT_LT(peak, 1e-2); // bounded at 0.99 x its own bound
     }
 }
 

@@ -26,7 +26,8 @@ namespace {
 
 // viridis at 0, 1/4, 1/2, 3/4 and 1 as matplotlib publishes it
 // (matplotlib.colors.to_hex(viridis(t))).
-const Color published[5] = {{0x44, 0x01, 0x54}, {0x3b, 0x52, 0x8b}, {0x21, 0x91, 0x8c}, {0x5e, 0xc9, 0x62}, {0xfd, 0xe7, 0x25}};
+const Color published[5] = {
+    {0x44, 0x01, 0x54}, {0x3b, 0x52, 0x8b}, {0x21, 0x91, 0x8c}, {0x5e, 0xc9, 0x62}, {0xfd, 0xe7, 0x25}};
 
 // w = 1e-5 m per metre of x over a 1 m x 0.5 m lattice.
 FieldMap ramp()
@@ -53,7 +54,7 @@ bool whitish(Color c) { return c.r >= 235 && c.g >= 235 && c.b >= 235; }
 int col(const FieldLayout &l, double x_m) { return static_cast<int>(std::floor(l.px_x(x_m))); }
 int row(const FieldLayout &l, double y_m) { return static_cast<int>(std::floor(l.px_y(y_m))); }
 
-}  // namespace
+} // namespace
 
 TEST(FieldImage, RampIsPaintedWithThePublishedViridisColours)
 {
@@ -63,7 +64,7 @@ TEST(FieldImage, RampIsPaintedWithThePublishedViridisColours)
     const Image img = render_field(f, s);
     ASSERT_EQ(img.width, l.width_px);
     ASSERT_EQ(img.height, l.height_px);
-    EXPECT_NEAR(static_cast<double>(l.field_h_px) / l.field_w_px, 0.5, 0.01);  // the plate's aspect
+    EXPECT_NEAR(static_cast<double>(l.field_h_px) / l.field_w_px, 0.5, 0.01); // the plate's aspect
     // Column k shows x = (k + 0.5) / width m: the first column after each
     // quarter shows the quarter's colour (entry floor(256 t)).
     for (int q = 0; q <= 4; ++q) {
@@ -77,7 +78,7 @@ TEST(FieldImage, ThresholdContourIsWhereARampCrossesIt)
 {
     const FieldMap f = ramp();
     FieldStyle s = ramp_style();
-    s.threshold = 0.3e-5;  // crossed at x = 0.3 m
+    s.threshold = 0.3e-5; // crossed at x = 0.3 m
     const FieldLayout l = field_layout(f, s);
     const Image img = render_field(f, s);
     const double want = l.px_x(0.3);
@@ -123,7 +124,7 @@ TEST(FieldImage, ThresholdContourOfAGaussianIsItsHalfHeightCircle)
                 EXPECT_NEAR(std::hypot(x - 0.5, y - 0.5), radius, 1.5 * m_per_px);
                 ++sector[static_cast<std::size_t>((std::atan2(y - 0.5, x - 0.5) + M_PI) / (2 * M_PI) * 72) % 72];
             }
-    for (std::size_t k = 0; k < sector.size(); ++k)  // closed all round: every 5 degrees
+    for (std::size_t k = 0; k < sector.size(); ++k) // closed all round: every 5 degrees
         EXPECT_GT(sector[k], 0) << "sector " << k;
 }
 
@@ -134,13 +135,13 @@ TEST(FieldImage, NanAndThePlateBeyondTheLatticeAreNoData)
         for (int i = 80; i < 120; ++i)
             f.value[static_cast<std::size_t>(j) * f.nx + i] = NAN;
     FieldStyle s = ramp_style();
-    s.plate_x_m = 1.2;  // 0.2 m of plate right of the lattice
+    s.plate_x_m = 1.2; // 0.2 m of plate right of the lattice
     s.plate_y_m = 0.5;
     const FieldLayout l = field_layout(f, s);
     const Image img = render_field(f, s);
     EXPECT_EQ(img.at(col(l, 0.5), row(l, 0.25)), field_no_data_color);
     EXPECT_EQ(img.at(col(l, 1.1), row(l, 0.25)), field_no_data_color);
-    EXPECT_EQ(img.at(col(l, 0.5), row(l, 0.05)), published[2]);  // below the hole: data
+    EXPECT_EQ(img.at(col(l, 0.5), row(l, 0.05)), published[2]); // below the hole: data
     EXPECT_NE(img.at(col(l, 0.2), row(l, 0.25)), field_no_data_color);
 }
 
@@ -153,7 +154,7 @@ TEST(FieldImage, MarkersAndActiveAreaSitWhereTheyAre)
     const FieldLayout l = field_layout(f, s);
     const Image img = render_field(f, s);
     EXPECT_EQ(img.at(col(l, 0.2), row(l, 0.4)), field_exciter_color);
-    EXPECT_TRUE(whitish(img.at(col(l, 0.7), row(l, 0.2))));  // the focus symbol's cross
+    EXPECT_TRUE(whitish(img.at(col(l, 0.7), row(l, 0.2)))); // the focus symbol's cross
     // The dashed outline of the area's left edge: light pixels on about half
     // of its rows, and none a few pixels beside it.
     int on = 0, rows = 0;
@@ -193,7 +194,7 @@ TEST(FieldImage, BadInputIsRefused)
     f.x0_m = INFINITY;
     refused(f, s);
     FieldStyle st = s;
-    st.vmax = 0.0;  // = vmin
+    st.vmax = 0.0; // = vmin
     refused(ramp(), st);
     st = s;
     st.scale = 0;
@@ -231,8 +232,12 @@ std::vector<std::uint8_t> unbase64(const std::string &s)
     std::uint32_t acc = 0;
     int bits = 0;
     for (char ch : s) {
-        int v = ch >= 'A' && ch <= 'Z' ? ch - 'A' : ch >= 'a' && ch <= 'z' ? ch - 'a' + 26
-              : ch >= '0' && ch <= '9' ? ch - '0' + 52 : ch == '+' ? 62 : ch == '/' ? 63 : -1;
+        int v = ch >= 'A' && ch <= 'Z'   ? ch - 'A'
+                : ch >= 'a' && ch <= 'z' ? ch - 'a' + 26
+                : ch >= '0' && ch <= '9' ? ch - '0' + 52
+                : ch == '+'              ? 62
+                : ch == '/'              ? 63
+                                         : -1;
         if (v < 0)
             continue;
         acc = (acc << 6) | static_cast<std::uint32_t>(v);
@@ -245,7 +250,7 @@ std::vector<std::uint8_t> unbase64(const std::string &s)
     return out;
 }
 
-}  // namespace
+} // namespace
 
 TEST(FieldMovie, OneSelfContainedFramePerInputOnOneColourScale)
 {
@@ -264,13 +269,13 @@ TEST(FieldMovie, OneSelfContainedFramePerInputOnOneColourScale)
     EXPECT_TRUE(xml_check::well_formed(html, why)) << why;
     EXPECT_EQ(count(html, "<img "), 4u);
     EXPECT_EQ(count(html, "src=\"data:image/png;base64,"), 4u);
-    EXPECT_EQ(count(html, "src="), 4u);          // nothing loaded from elsewhere
+    EXPECT_EQ(count(html, "src="), 4u); // nothing loaded from elsewhere
     EXPECT_EQ(count(html, "href"), 0u);
     EXPECT_EQ(count(html, "http"), 0u);
     EXPECT_EQ(count(html, "hidden=\"hidden\""), 3u);
     EXPECT_EQ(count(html, "id=\"movie-1\""), 1u);
     EXPECT_EQ(count(html, "max=\"3\""), 1u);
-    EXPECT_EQ(count(html, "&lt;over&gt;"), 4u);  // the title in each alt text, escaped
+    EXPECT_EQ(count(html, "&lt;over&gt;"), 4u); // the title in each alt text, escaped
     for (const char *t : {"t = 0 ms", "t = 1 ms", "t = 2 ms", "t = 3 ms"})
         EXPECT_EQ(count(html, std::string("data-t=\"") + t + "\""), 1u) << t;
 
@@ -286,7 +291,8 @@ TEST(FieldMovie, OneSelfContainedFramePerInputOnOneColourScale)
         ASSERT_NE(px, nullptr) << stbi_failure_reason();
         EXPECT_EQ(w, l.width_px);
         EXPECT_EQ(h, l.height_px);
-        const std::size_t centre = (static_cast<std::size_t>(l.field_y_px + l.field_h_px / 2) * w + l.field_x_px + l.field_w_px / 2) * 3;
+        const std::size_t centre =
+            (static_cast<std::size_t>(l.field_y_px + l.field_h_px / 2) * w + l.field_x_px + l.field_w_px / 2) * 3;
         EXPECT_EQ((Color{px[centre], px[centre + 1], px[centre + 2]}), published[k + 1]) << "frame " << k;
         stbi_image_free(px);
     }

@@ -26,7 +26,7 @@ double a0_k(double f)
     const double w = 2 * std::numbers::pi * f;
     return std::pow(w * w * rho * h / D, 0.25);
 }
-}  // namespace
+} // namespace
 
 TEST(FocusCeiling, LongBurstTendsToTheFirstExtremumOfJ0)
 {
@@ -43,7 +43,7 @@ TEST(FocusCeiling, LongBurstTendsToTheFirstExtremumOfJ0)
 
 TEST(FocusCeiling, ShortPulseScoresAboveTheMonochromaticRing)
 {
-    PulseSpec p;  // the seed's 2-cycle Hann burst at 300 Hz
+    PulseSpec p; // the seed's 2-cycle Hann burst at 300 Hz
     const double lambda = 2 * std::numbers::pi / a0_k(300);
     const FocusCeiling c = ideal_focus_ceiling(p, a0_k, lambda / 2);
     // A second evaluation (direct sums over 5 Hz bins to 1.5 kHz, J0 by its
@@ -82,7 +82,7 @@ TEST(FocusCeiling, NonDispersivePlateScalesWithTheSpeed)
 // ideal focus, and the ideal one matches ideal_focus_ceiling.
 TEST(FocusCeiling, NoFieldWithThePulseAtTheFocusScoresAboveIt)
 {
-    PulseSpec p;  // the seed's pulse
+    PulseSpec p; // the seed's pulse
     const double lambda = 2 * std::numbers::pi / a0_k(300);
     const double ceiling = ideal_focus_ceiling(p, a0_k, lambda / 2).target_db;
     // The pulse's spectrum on a 12.5 Hz grid (an 80 ms period) to 1.2 kHz,
@@ -103,8 +103,8 @@ TEST(FocusCeiling, NoFieldWithThePulseAtTheFocusScoresAboveIt)
     std::vector<std::vector<std::complex<double>>> phase(401, std::vector<std::complex<double>>(B));
     for (std::size_t i = 0; i < phase.size(); i++)
         for (std::size_t b = 1; b < B; b++)
-            phase[i][b] = std::exp(std::complex<double>(0, 2 * std::numbers::pi * df * double(b) *
-                                                              (double(i) - 200.0) * 1e-4));
+            phase[i][b] =
+                std::exp(std::complex<double>(0, 2 * std::numbers::pi * df * double(b) * (double(i) - 200.0) * 1e-4));
     auto largest = [&](const std::vector<std::complex<double>> &A) {
         double m = 0;
         for (const auto &ph : phase) {

@@ -72,9 +72,9 @@ std::vector<double> play(const pipeline::TransferMatrix &H, const std::vector<st
 }
 
 struct Residual {
-    double relative = 0;      // || A s - d || / || d || over the foci and control rows
-    double drive_norm = 0;    // || s ||
-    double correlation = 0;   // sum over the foci of <w_f, d> / || s ||
+    double relative = 0;    // || A s - d || / || d || over the foci and control rows
+    double drive_norm = 0;  // || s ||
+    double correlation = 0; // sum over the foci of <w_f, d> / || s ||
 };
 
 Residual residual_of(const pipeline::TransferMatrix &H, const pipeline::InverseFilterProblem &p,
@@ -129,7 +129,7 @@ double best_correlation(const std::vector<double> &a, const std::vector<double> 
     return best;
 }
 
-}  // namespace
+} // namespace
 TEST(InverseFilter, UnregularisedInverseIsExactWithFewerPointsThanExcitersAndLongEnoughDrives)
 {
     const pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "inverse.toml");
@@ -138,12 +138,12 @@ TEST(InverseFilter, UnregularisedInverseIsExactWithFewerPointsThanExcitersAndLon
     ASSERT_EQ(H.channels, C);
     pipeline::InverseFilterOptions o;
     o.regularization = 0;
-    for (std::size_t Q : {2u, 3u}) {  // the focus and Q - 1 control points
+    for (std::size_t Q : {2u, 3u}) { // the focus and Q - 1 control points
         pipeline::InverseFilterProblem p;
         p.foci = {0};
         for (std::size_t q = 1; q < Q; q++)
             p.control.push_back(q);
-        p.drive_samples = (Q * (S - 1) + (C - Q) - 1) / (C - Q) + 1;  // the MINT length, rounded up
+        p.drive_samples = (Q * (S - 1) + (C - Q) - 1) / (C - Q) + 1; // the MINT length, rounded up
         p.target = pipeline::focus_target(in, H.rate_hz, double(p.drive_samples) / H.rate_hz);
         const pipeline::InverseFilterDesign d = pipeline::design_inverse_filter(H, p, o);
         const Residual r = residual_of(H, p, d.drive);
@@ -162,9 +162,9 @@ TEST(InverseFilter, RegularisationTradesResidualForDriveAndTendsToTheMatchedFilt
     pipeline::InverseFilterProblem p;
     p.foci = {0};
     p.control = {1, 2, 3};
-    p.drive_samples = 40;  // far below the exact length: a true trade
+    p.drive_samples = 40; // far below the exact length: a true trade
     p.target = pipeline::focus_target(in, H.rate_hz, 36.0 / H.rate_hz);
-    pipeline::InverseFilterOptions o;  // plain Tikhonov: no out-of-band weighting
+    pipeline::InverseFilterOptions o; // plain Tikhonov: no out-of-band weighting
     std::vector<Residual> r;
     std::vector<std::vector<std::vector<double>>> drives;
     const double eps[] = {1e-9, 1e-6, 1e-4, 1e-2, 1, 1e2, 1e8};
@@ -306,8 +306,8 @@ TEST(InverseFilter, BadInputIsRefusedNamingTheKey)
         for (const auto &f : in.foci.points)
             far = std::max(far, std::hypot(e.x_m - f.at.x_m, e.y_m - f.at.y_m));
     EXPECT_NEAR(pipeline::crossing_time_s(in, in.exciters.positions), far / cg, 1e-12);
-    const std::string short_lead = refusal(replace(
-        base, "verify_tail_s = 0.01", "verify_tail_s = 0.01\nlead_time_s = " + std::to_string(0.9 * far / cg)));
+    const std::string short_lead = refusal(
+        replace(base, "verify_tail_s = 0.01", "verify_tail_s = 0.01\nlead_time_s = " + std::to_string(0.9 * far / cg)));
     EXPECT_EQ(short_lead.rfind("calibration.lead_time_s: ", 0), 0u) << short_lead;
     EXPECT_NE(short_lead.find("shorter than the plate crossing"), std::string::npos) << short_lead;
     EXPECT_EQ(short_lead.find('\n'), std::string::npos);

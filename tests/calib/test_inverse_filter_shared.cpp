@@ -56,7 +56,7 @@ double max_relative_difference(const pipeline::InverseFilterDesign &a, const pip
     return diff / top;
 }
 
-}  // namespace
+} // namespace
 
 TEST(InverseFilterShared, TheSharedDesignsAreThePerFocusDesignsToRoundOff)
 {

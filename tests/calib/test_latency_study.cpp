@@ -33,7 +33,7 @@ std::size_t lines(const std::string &text)
     return n;
 }
 
-}  // namespace
+} // namespace
 
 TEST(LatencyStudy, JointDesignsBesideTheSuperpositionInTheInverseFilterCases)
 {
@@ -42,7 +42,7 @@ TEST(LatencyStudy, JointDesignsBesideTheSuperpositionInTheInverseFilterCases)
     o.triples = o.joint = true;
     const std::string scene = std::string(HAPTIC_TEST_SCENES) + "/inverse.toml";
     const study::LatencyResult r = study::run_latency_study(scene, o);
-    ASSERT_EQ(r.rows.size(), 4u);  // both methods at the scene's window and at 6 ms
+    ASSERT_EQ(r.rows.size(), 4u); // both methods at the scene's window and at 6 ms
     ASSERT_EQ(r.focus_ids.size(), 4u);
     std::size_t joint_rows = 0;
     for (const study::LatencyRow &x : r.rows) {
@@ -78,7 +78,7 @@ TEST(LatencyStudy, JointDesignsBesideTheSuperpositionInTheInverseFilterCases)
         for (pipeline::MultiTouchCase &c : x.sets)
             c.has_joint = false;
     const auto dir2 = std::filesystem::temp_directory_path() / ("latency-study-plain-" + std::to_string(::getpid()));
-    (void)study::write_latency_report(r, dir2.string());  // an earlier run with joint designs, same directory
+    (void)study::write_latency_report(r, dir2.string()); // an earlier run with joint designs, same directory
     ASSERT_TRUE(std::filesystem::exists(dir2 / "multitouch.csv"));
     const std::string md2 = study::write_latency_report(plain, dir2.string());
     EXPECT_FALSE(std::filesystem::exists(dir2 / "multitouch.csv"));

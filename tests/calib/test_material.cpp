@@ -25,7 +25,7 @@ constexpr PrintedSpeeds table1_printed[] = {
     {"steel", 5778.0, 3194.0},
 };
 
-}  // namespace
+} // namespace
 
 TEST(Material, SpeedsFollowFromLameConstants)
 {
@@ -63,8 +63,9 @@ TEST(Material, TableIPrintedSpeedsDisagreeWithItsElasticConstants)
         const PrintedSpeeds &p = table1_printed[i];
         const Material m = *find_material(p.name);
         const double dcl = p.cl_m_s / m.cl_m_s() - 1, dct = p.ct_m_s / m.ct_m_s() - 1;
-        std::printf("[ measured ] %s: printed c_L %.0f vs %.1f from E, nu, rho (%+.3f %%); c_T %.0f vs %.1f (%+.3f %%)\n",
-                    p.name, p.cl_m_s, m.cl_m_s(), 100 * dcl, p.ct_m_s, m.ct_m_s(), 100 * dct);
+        std::printf(
+            "[ measured ] %s: printed c_L %.0f vs %.1f from E, nu, rho (%+.3f %%); c_T %.0f vs %.1f (%+.3f %%)\n",
+            p.name, p.cl_m_s, m.cl_m_s(), 100 * dcl, p.ct_m_s, m.ct_m_s(), 100 * dct);
         EXPECT_NEAR(dcl, expected_cl[i], 0.02 * std::abs(expected_cl[i]) + 1e-6) << p.name;
         EXPECT_NEAR(dct, expected_ct[i], 0.02 * std::abs(expected_ct[i]) + 1e-6) << p.name;
     }

@@ -47,7 +47,7 @@ struct FixtureTable {
     }
 };
 
-}  // namespace
+} // namespace
 
 TEST(MixAgreement, ThreeFociSampleForSample)
 {

@@ -19,10 +19,7 @@ using std::numbers::pi;
 
 namespace {
 
-double order(double e1, double e2)
-{
-    return std::log2(std::abs(e1) / std::abs(e2));
-}
+double order(double e1, double e2) { return std::log2(std::abs(e1) / std::abs(e2)); }
 
 // Non-dimensional frequency lambda^2 = omega a^2 sqrt(rho d / D) of a square
 // plate of side a.
@@ -35,9 +32,9 @@ double lambda2(const PlateOperator &op, double omega2)
 
 struct SineMode {
     int m, n;
-    double omega2_discrete;  // of M^-1 K: (kappa * 4/h^2 (sin^2(m pi h/2a) + sin^2(n pi h/2b)))^2
-    double laplacian;        // of the discrete -laplacian: 4/h^2 (...)
-    double omega_continuum;  // kappa ((m pi/a)^2 + (n pi/b)^2)
+    double omega2_discrete; // of M^-1 K: (kappa * 4/h^2 (sin^2(m pi h/2a) + sin^2(n pi h/2b)))^2
+    double laplacian;       // of the discrete -laplacian: 4/h^2 (...)
+    double omega_continuum; // kappa ((m pi/a)^2 + (n pi/b)^2)
 };
 
 // The simply supported modes of a nx x ny grid, lowest first: on this scheme
@@ -54,11 +51,12 @@ std::vector<SineMode> sine_modes(const PlateOperator &op)
             out.push_back({m, n, std::pow(op.kappa() * lap, 2), lap,
                            op.kappa() * (std::pow(m * pi / a, 2) + std::pow(n * pi / b, 2))});
         }
-    std::sort(out.begin(), out.end(), [](const SineMode &x, const SineMode &y) { return x.omega2_discrete < y.omega2_discrete; });
+    std::sort(out.begin(), out.end(),
+              [](const SineMode &x, const SineMode &y) { return x.omega2_discrete < y.omega2_discrete; });
     return out;
 }
 
-}  // namespace
+} // namespace
 
 TEST(Modes, EngineStepAppliesTheAssembledOperator)
 {
@@ -107,7 +105,8 @@ TEST(Modes, SimplySupportedRectangleIsTheExactDiscreteSineSpectrum)
         ASSERT_EQ(modes.frequency_hz.size(), std::size_t(count));
         for (int c = 0; c < count; ++c) {
             const std::size_t i = std::size_t(c);
-            EXPECT_NEAR(modes.eigenvalue_rad2_s2[i] / truth[i].omega2_discrete, 1.0, 1e-9) << nx << "x" << ny << " mode " << c;
+            EXPECT_NEAR(modes.eigenvalue_rad2_s2[i] / truth[i].omega2_discrete, 1.0, 1e-9)
+                << nx << "x" << ny << " mode " << c;
             EXPECT_NEAR(modes.frequency_hz[i], std::sqrt(truth[i].omega2_discrete) / (2 * pi),
                         1e-9 * modes.frequency_hz[i]);
             EXPECT_NEAR(modes.decay_rate_1_s[i], loss.sigma0 + loss.sigma1 * truth[i].laplacian, 1e-8) << c;
@@ -217,8 +216,9 @@ TEST(Modes, FreeSquareHasThreeRigidModesThenTheTwist)
             double curvature = 0;
             for (int j = 0; j <= n; ++j)
                 for (int x = 1; x < n; ++x)
-                    curvature = std::max(curvature, std::abs(w[op->grid().node(x + 1, j)] - 2 * w[op->grid().node(x, j)] +
-                                                             w[op->grid().node(x - 1, j)]));
+                    curvature =
+                        std::max(curvature, std::abs(w[op->grid().node(x + 1, j)] - 2 * w[op->grid().node(x, j)] +
+                                                     w[op->grid().node(x - 1, j)]));
             EXPECT_LT(curvature, 1e-6) << "rigid mode " << r;
         }
         std::vector<std::pair<Parity, Parity>> rigid, want = {{Parity::symmetric, Parity::symmetric},
@@ -249,8 +249,8 @@ TEST(Modes, MixedEdgesAgreeWithASecondEigensolver)
     // Lanczos against the block subspace iteration of spectrum.h (another
     // algorithm on the same matrices), the shapes M-orthonormal, each pair an
     // eigenpair to a small residual.
-    auto op = make_plate(24, 18, 0.0125, {EdgeKind::free, EdgeKind::clamped, EdgeKind::free,
-                                          EdgeKind::simply_supported}, 0.33);
+    auto op = make_plate(24, 18, 0.0125,
+                         {EdgeKind::free, EdgeKind::clamped, EdgeKind::free, EdgeKind::simply_supported}, 0.33);
     const int count = 8;
     const PlateModes modes = lowest_modes(*op, count);
     const std::vector<double> other = lowest_generalized_eigenvalues(op->stiffness(), op->mass(), count, 1.0);
@@ -264,7 +264,8 @@ TEST(Modes, MixedEdgesAgreeWithASecondEigensolver)
             EXPECT_GT(modes.frequency_hz[i], modes.frequency_hz[i - 1] * (1 + 1e-6)) << c;
         }
         EXPECT_NEAR(modes.eigenvalue_rad2_s2[i] / other[i], 1.0, 1e-9) << c;
-        const Eigen::VectorXd r = op->stiffness() * v.col(c) - modes.eigenvalue_rad2_s2[i] * op->mass().cwiseProduct(v.col(c));
+        const Eigen::VectorXd r =
+            op->stiffness() * v.col(c) - modes.eigenvalue_rad2_s2[i] * op->mass().cwiseProduct(v.col(c));
         EXPECT_LT(r.norm(), 1e-7 * modes.eigenvalue_rad2_s2[i] * op->mass().cwiseProduct(v.col(c)).norm()) << c;
         EXPECT_EQ(modes.parity_x[i], Parity::not_applicable);
         EXPECT_EQ(modes.parity_y[i], Parity::not_applicable);
@@ -280,7 +281,7 @@ TEST(Modes, MixedEdgesAgreeWithASecondEigensolver)
 
 TEST(Modes, RefusesCountsOutsideOneToUnknownsMinusOne)
 {
-    auto op = make_plate(4, 3, 0.05, Edges::all(EdgeKind::clamped));  // 3 x 2 = 6 unknowns
+    auto op = make_plate(4, 3, 0.05, Edges::all(EdgeKind::clamped)); // 3 x 2 = 6 unknowns
     ASSERT_EQ(op->unknown_count(), 6u);
     EXPECT_THROW(lowest_modes(*op, 0), std::invalid_argument);
     EXPECT_THROW(lowest_modes(*op, -3), std::invalid_argument);
@@ -292,7 +293,7 @@ TEST(Modes, RefusesCountsOutsideOneToUnknownsMinusOne)
         EXPECT_NEAR(all_but_one.eigenvalue_rad2_s2[i] / other[i], 1.0, 1e-9) << i;
 }
 
-#ifndef HAPTIC_ASAN  // the sanitizers' shadow memory is not what a release run needs
+#ifndef HAPTIC_ASAN // the sanitizers' shadow memory is not what a release run needs
 TEST(Modes, MemoryEstimateBoundsTheMeasuredPeak)
 {
     // The refusal of `calibgen modes` trusts these estimates: they must not

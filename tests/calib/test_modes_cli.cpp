@@ -30,7 +30,7 @@ using calibgen_run::Outcome;
 using calibgen_run::read_text;
 
 class ModesCli : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override
     {
         dir_ = fs::temp_directory_path() / ("haptic-modes-" + std::to_string(::getpid()));
@@ -74,12 +74,13 @@ std::vector<std::vector<std::string>> parse_csv(const std::string &text)
     return rows;
 }
 
-}  // namespace
+} // namespace
 
 TEST_F(ModesCli, WritesTheLibrarysModesAndOneImagePerMode)
 {
     const fs::path png = dir_ / "shapes";
-    const Outcome r = calibgen("\"" + small_scene + "\" --count 6 -o \"" + csv().string() + "\" --png \"" + png.string() + "\"");
+    const Outcome r =
+        calibgen("\"" + small_scene + "\" --count 6 -o \"" + csv().string() + "\" --png \"" + png.string() + "\"");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto rows = parse_csv(read_text(csv()));
     ASSERT_EQ(rows.size(), 7u);
@@ -110,7 +111,7 @@ TEST_F(ModesCli, WritesTheLibrarysModesAndOneImagePerMode)
         EXPECT_EQ(bytes.substr(1, 3), "PNG") << name;
     }
     EXPECT_EQ(std::distance(fs::directory_iterator(png), fs::directory_iterator{}), 6);
-    EXPECT_EQ(rows[1][6] + rows[1][7], "symsym");  // the fundamental
+    EXPECT_EQ(rows[1][6] + rows[1][7], "symsym"); // the fundamental
 }
 
 TEST_F(ModesCli, RefusesBadInputInOneLine)
@@ -159,7 +160,7 @@ TEST_F(ModesCli, CalibrateReportShowsTheLowestModes)
         pos = json.find(':', pos) + 1;
         EXPECT_NEAR(std::stod(json.substr(pos, 40)), modes.frequency_hz[c], 1e-9 * modes.frequency_hz[c]) << c;
     }
-    EXPECT_EQ(json.find("\"frequency_hz\"", pos), std::string::npos);  // four, no more
+    EXPECT_EQ(json.find("\"frequency_hz\"", pos), std::string::npos); // four, no more
     const std::string html = read_text(report / "index.html");
     EXPECT_NE(html.find("<h2>Plate modes</h2>"), std::string::npos);
     std::size_t images = 0;
@@ -177,9 +178,10 @@ TEST_F(ModesCli, CalibrateReportShowsTheLowestModes)
 
     // Refused before the calibration, in one line, no table written.
     fs::remove(table);
-    for (const auto &[args, what] : {std::pair<std::string, std::string>{" --modes 3", "give --report DIR too"},
-                                     {" --report \"" + report.string() + "\" --modes -1", "--modes -1: must be from 1"},
-                                     {" --report \"" + report.string() + "\" --modes 1000000", "--modes 1000000: must be from 1"}}) {
+    for (const auto &[args, what] :
+         {std::pair<std::string, std::string>{" --modes 3", "give --report DIR too"},
+          {" --report \"" + report.string() + "\" --modes -1", "--modes -1: must be from 1"},
+          {" --report \"" + report.string() + "\" --modes 1000000", "--modes 1000000: must be from 1"}}) {
         const Outcome bad = run("calibrate -q \"" + scene + "\" -o \"" + table.string() + "\"" + args);
         EXPECT_EQ(bad.exit_code, 1) << args;
         EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;

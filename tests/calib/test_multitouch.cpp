@@ -41,7 +41,7 @@ Table inverse_filter_table(pipeline::CalibrationInput &in)
     return t;
 }
 
-}  // namespace
+} // namespace
 
 TEST(MultiTouch, MixerGainHoldsTheMeanSingleFocusEnergyAndNeverClips)
 {
@@ -62,7 +62,7 @@ TEST(MultiTouch, MixerGainHoldsTheMeanSingleFocusEnergyAndNeverClips)
     // loud + loud: energy says 1/2 too, the peak bound 32767 / 60000.
     EXPECT_NEAR(pipeline::mixer_gain({&loud, &loud}, C), 0.5, 1e-12);
     std::vector<int16_t> loud2(512, 0);
-    loud2[20 * C] = 30000;  // same block, same channel, orthogonal in time: energy 1/sqrt(2), peak 32767/60000
+    loud2[20 * C] = 30000; // same block, same channel, orthogonal in time: energy 1/sqrt(2), peak 32767/60000
     EXPECT_NEAR(pipeline::mixer_gain({&loud, &loud2}, C), 32767.0 / 60000.0, 1e-12);
 }
 
@@ -162,7 +162,7 @@ TEST(MultiTouch, AJointSetOfOneIsTheTablesDesignWithThePrecompensatedExciter)
     const pipeline::TransferMatrix &H = t.H;
     const pipeline::CalibrationResult &r = t.r;
     const pipeline::DriveSignals one = pipeline::joint_inverse_filter_signals(in, H, {2});
-    const pipeline::DriveSignals plain = pipeline::inverse_filter_signals(in, H)[2];  // not pre-compensated
+    const pipeline::DriveSignals plain = pipeline::inverse_filter_signals(in, H)[2]; // not pre-compensated
     ASSERT_EQ(one.normalized.size(), r.signals[2].normalized.size());
     double diff = 0, moved = 0;
     for (std::size_t i = 0; i < one.normalized.size(); i++) {
@@ -170,5 +170,5 @@ TEST(MultiTouch, AJointSetOfOneIsTheTablesDesignWithThePrecompensatedExciter)
         moved = std::max(moved, std::abs(one.normalized[i] - plain.normalized[i]));
     }
     EXPECT_LT(diff, 1e-12);
-    EXPECT_GT(moved, 0.01);  // the pre-compensation changes the drive
+    EXPECT_GT(moved, 0.01); // the pre-compensation changes the drive
 }

@@ -18,7 +18,8 @@ std::vector<std::vector<std::vector<float>>> random_responses(size_t rows, size_
 {
     std::mt19937 rng(seed);
     std::normal_distribution<float> n01;
-    std::vector<std::vector<std::vector<float>>> r(rows, std::vector<std::vector<float>>(sites, std::vector<float>(len)));
+    std::vector<std::vector<std::vector<float>>> r(rows,
+                                                   std::vector<std::vector<float>>(sites, std::vector<float>(len)));
     for (auto &a : r)
         for (auto &b : a)
             for (float &v : b)
@@ -35,7 +36,7 @@ Band fig7_band()
     b.clearance_m = 0.01;
     return b;
 }
-}  // namespace
+} // namespace
 
 TEST(Placement, CandidateSitesStayInTheBorderBand)
 {
@@ -168,7 +169,7 @@ TEST(Placement, SpacingIsRespectedAndImpossibleBandsRefused)
         for (size_t j = i + 1; j < r.chosen.size(); j++)
             EXPECT_GE(std::hypot(s[r.chosen[i]].x_m - s[r.chosen[j]].x_m, s[r.chosen[i]].y_m - s[r.chosen[j]].y_m),
                       0.08);
-    o.min_spacing_m = 1.0;  // 8 exciters 1 m apart on a 0.7 m plate
+    o.min_spacing_m = 1.0; // 8 exciters 1 m apart on a 0.7 m plate
     EXPECT_THROW(search_placement(s, o, [](const std::vector<size_t> &) { return 0.0; }), std::invalid_argument);
 }
 
@@ -200,7 +201,7 @@ TEST(ContrastModel, MatchesDirectCorrelationSum)
     st.add(1, -1.0f);
     st.add(2, 1.0f);
     EXPECT_NEAR(st.evaluate().worst_db, s.worst_db, 1e-3);
-    EXPECT_THROW(ContrastModel({r[0]}, 1, keep), std::invalid_argument);  // nothing to contrast against
+    EXPECT_THROW(ContrastModel({r[0]}, 1, keep), std::invalid_argument); // nothing to contrast against
 }
 
 // The one-pass exchange the annealer uses gives the floats of the two adds
@@ -226,7 +227,7 @@ TEST(ContrastModel, OnePassSwapEqualsTwoAddsBitForBit)
         plain.add(in, 1.0f);
         const ContrastModel::Score want = plain.evaluate();
         ASSERT_EQ(got, want.worst_db) << "step " << step;
-        if (step % 3 == 0) {  // rejected: back to the set before
+        if (step % 3 == 0) { // rejected: back to the set before
             fused.undo(in, out);
             plain.add(in, -1.0f);
             plain.add(out, 1.0f);

@@ -40,7 +40,7 @@ pipeline::FocusMetrics focus(double peak_um, double others_um, double area_um)
 // A 250 x 200 mm acrylic plate, 4 exciters, 2 foci at 1.2 kHz: a calibration in about a second.
 std::string small_scene() { return scene_text::load("placement-verdict-small.toml"); }
 
-}  // namespace
+} // namespace
 
 // A placement whose foci stand clear of each other but which rings above the
 // threshold between them (the proxy's favourite: 8 dB over the other foci)
@@ -50,9 +50,9 @@ std::string small_scene() { return scene_text::load("placement-verdict-small.tom
 TEST(PlacementVerdict, AGhostLosesToAClearPlacementTheProxyRanksLower)
 {
     pipeline::Verification ghost, clear;
-    ghost.foci = {focus(10, 4.0, 6.0), focus(10, 4.0, 4.0)};  // focus 1: a ghost at 6 um beyond lambda/2
+    ghost.foci = {focus(10, 4.0, 6.0), focus(10, 4.0, 4.0)}; // focus 1: a ghost at 6 um beyond lambda/2
     clear.foci = {focus(10, 4.7, 4.8), focus(10, 4.7, 4.8)};
-    ASSERT_GT(ghost.foci[0].other_foci_contrast_db, clear.foci[0].other_foci_contrast_db);  // what the proxy sees
+    ASSERT_GT(ghost.foci[0].other_foci_contrast_db, clear.foci[0].other_foci_contrast_db); // what the proxy sees
     EXPECT_FALSE(ghost.foci[0].passes());
     EXPECT_TRUE(ghost.foci[1].passes());
     EXPECT_TRUE(clear.foci[0].passes() && clear.foci[1].passes());
@@ -84,7 +84,7 @@ TEST(PlacementVerdict, AGhostLosesToAClearPlacementTheProxyRanksLower)
     EXPECT_EQ(pipeline::passing_at_target(ghost, 10e-6), 1u);
     EXPECT_TRUE(pipeline::verdict_better(ghost, low, 10e-6));
     EXPECT_FALSE(pipeline::verdict_better(low, ghost, 10e-6));
-    EXPECT_TRUE(pipeline::verdict_better(low, ghost, 7.5e-6));  // a scene that asks for 7.5 um
+    EXPECT_TRUE(pipeline::verdict_better(low, ghost, 7.5e-6)); // a scene that asks for 7.5 um
 }
 
 // On a small plate the search by the verdict judges the model's choice and
@@ -106,10 +106,10 @@ TEST(PlacementVerdict, SearchKeepsTheBestJudgedPlacementAndItsFiguresHold)
     bool found = false;
     for (const pipeline::PlacementReport::Judged &j : p.judged) {
         // No judged placement ranks above the one kept.
-        const bool below = j.passing_at_target < at_target ||
-                           (j.passing_at_target == at_target &&
-                            (j.passing < vs.passing ||
-                             (j.passing == vs.passing && j.worst_whole_area_db <= worst + 1e-12)));
+        const bool below =
+            j.passing_at_target < at_target ||
+            (j.passing_at_target == at_target &&
+             (j.passing < vs.passing || (j.passing == vs.passing && j.worst_whole_area_db <= worst + 1e-12)));
         EXPECT_TRUE(below) << j.passing_at_target << " / " << j.passing << " foci, " << j.worst_whole_area_db
                            << " dB against " << at_target << " / " << vs.passing << ", " << worst;
         if (j.chosen == p.chosen) {

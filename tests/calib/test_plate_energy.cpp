@@ -48,7 +48,7 @@ TEST(PlateEnergy, FloatRunStaysCloseToConserved)
 
 TEST(PlateEnergy, LossyEnergyNeverIncreases)
 {
-    const Loss loss{2.0, 1e-3};  // sigma0 (1/s), sigma1 (m^2/s): strong, to see it act
+    const Loss loss{2.0, 1e-3}; // sigma0 (1/s), sigma1 (m^2/s): strong, to see it act
     for (const Edges &e : {Edges::all(EdgeKind::clamped), Edges::all(EdgeKind::free),
                            Edges{EdgeKind::free, EdgeKind::simply_supported, EdgeKind::free, EdgeKind::clamped}}) {
         auto op = make_plate(14, 11, 0.01, e, 0.3, loss);
@@ -62,7 +62,7 @@ TEST(PlateEnergy, LossyEnergyNeverIncreases)
             ASSERT_LE(now, prev * (1 + 1e-13)) << describe(e) << " step " << n;
             prev = now;
         }
-        EXPECT_LT(prev, 0.5 * e0) << describe(e);  // and the loss really acts
+        EXPECT_LT(prev, 0.5 * e0) << describe(e); // and the loss really acts
     }
 }
 
@@ -131,7 +131,7 @@ TEST(PlateEnergy, LossFitTakesAnExactOneOverFLawAtEveryThickness)
     // law that falls faster than 1/f by a part in a million.
     int accepted = 0;
     for (int i = 0; i < 200; i++) {
-        const double kappa = 0.05 * std::pow(1.03, i);  // 0.05 ... 18 m^2/s
+        const double kappa = 0.05 * std::pow(1.03, i); // 0.05 ... 18 m^2/s
         const Loss l = loss_from_t60(kappa, 100, 0.54, 300, 0.18);
         EXPECT_GE(l.sigma0, 0.0) << "kappa " << kappa;
         EXPECT_LT(l.sigma0, 1e-12 * 3 * std::log(10.0) / 0.54) << "kappa " << kappa;

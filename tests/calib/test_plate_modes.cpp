@@ -16,9 +16,9 @@ using std::numbers::pi;
 namespace {
 
 struct ModeRun {
-    double omega;          // measured angular frequency (rad/s)
-    double impurity;       // max ||u - s v|| / ||v|| over the run (started at u = v)
-    double omega_formula;  // (2/k) asin(2 mu [sin^2(m pi h/2a) + sin^2(n pi h/2b)])
+    double omega;         // measured angular frequency (rad/s)
+    double impurity;      // max ||u - s v|| / ||v|| over the run (started at u = v)
+    double omega_formula; // (2/k) asin(2 mu [sin^2(m pi h/2a) + sin^2(n pi h/2b)])
     double omega_continuum;
 };
 
@@ -71,12 +71,9 @@ ModeRun run_sine_mode(int nx, int ny, double h, int m, int n, std::size_t steps)
     return out;
 }
 
-double order(double e1, double e2)
-{
-    return std::log2(std::abs(e1) / std::abs(e2));
-}
+double order(double e1, double e2) { return std::log2(std::abs(e1) / std::abs(e2)); }
 
-}  // namespace
+} // namespace
 
 TEST(PlateModes, SimplySupportedMatchesDiscreteDispersionRelation)
 {
@@ -112,14 +109,14 @@ double square_lambda2(int n, EdgeKind edges, double nu, int index, double shift_
 {
     const double a = 1.0;
     auto op = make_plate(n, n, a / n, Edges::all(edges), nu);
-    const double scale = a * a * std::sqrt(op->params().material.density_kg_m3 * op->params().thickness_m /
-                                            op->bending_stiffness());
+    const double scale =
+        a * a * std::sqrt(op->params().material.density_kg_m3 * op->params().thickness_m / op->bending_stiffness());
     const double shift = std::pow(shift_lambda2 / scale, 2);
     const auto lam = lowest_generalized_eigenvalues(op->stiffness(), op->mass(), index + 1, shift);
     return std::sqrt(std::max(lam[std::size_t(index)], 0.0)) * scale;
 }
 
-}  // namespace
+} // namespace
 
 TEST(PlateModes, ClampedSquareFirstModeConvergesToLeissa)
 {
@@ -149,8 +146,8 @@ TEST(PlateModes, FreeSquareRigidModesAndFirstElasticMode)
     for (int level = 0; level < 3; ++level) {
         const int n = base << level;
         auto op = make_plate(n, n, 1.0 / n, Edges::all(EdgeKind::free), 0.3);
-        const double scale = std::sqrt(op->params().material.density_kg_m3 * op->params().thickness_m /
-                                       op->bending_stiffness());
+        const double scale =
+            std::sqrt(op->params().material.density_kg_m3 * op->params().thickness_m / op->bending_stiffness());
         const double shift = std::pow(1.0 / scale, 2);
         const auto lam = lowest_generalized_eigenvalues(op->stiffness(), op->mass(), 4, shift);
         const double elastic = std::sqrt(lam[3]) * scale;
@@ -185,8 +182,8 @@ TEST(PlateModes, InteriorRowsAreThe13PointStencil)
     // nu and the edges are (hand-written stencil: 20, -8, 2, 1).
     for (double nu : {0.0, 0.3, 0.45}) {
         const double h = 0.01;
-        auto op = make_plate(9, 8, h, {EdgeKind::free, EdgeKind::clamped, EdgeKind::free, EdgeKind::simply_supported},
-                             nu);
+        auto op =
+            make_plate(9, 8, h, {EdgeKind::free, EdgeKind::clamped, EdgeKind::free, EdgeKind::simply_supported}, nu);
         const double scale = op->kappa() * op->kappa() / std::pow(h, 4);
         const int ci = 4, cj = 4;
         const auto row = op->unknown_of()[op->grid().node(ci, cj)];

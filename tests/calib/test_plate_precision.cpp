@@ -27,7 +27,7 @@ std::vector<double> impulse_response(std::shared_ptr<const PlateOperator> op, Pr
     return sim.traces()[0];
 }
 
-}  // namespace
+} // namespace
 
 TEST(PlatePrecision, FloatMatchesDoubleOnALossyPlate)
 {
@@ -88,7 +88,7 @@ std::vector<double> stepped(std::shared_ptr<const PlateOperator> op, int threads
     return eng.displacement();
 }
 
-}  // namespace
+} // namespace
 
 TEST(PlatePrecision, ThreadedBulkGivesTheBitsOfOneThread)
 {

@@ -30,7 +30,7 @@ std::vector<double> response(std::shared_ptr<const PlateOperator> op, double k, 
     return sim.traces()[0];
 }
 
-}  // namespace
+} // namespace
 
 TEST(PlateReciprocity, SwappingSourceAndReceiverGivesTheSameTrace)
 {

@@ -16,23 +16,20 @@ namespace plate_test {
 using namespace calib::engine;
 
 #ifdef HAPTIC_ASAN
-constexpr double run_scale = 0.1;  // sanitizers are ~10x slower
+constexpr double run_scale = 0.1; // sanitizers are ~10x slower
 #else
 constexpr double run_scale = 1.0;
 #endif
 
-inline std::size_t scaled(double steps)
-{
-    return std::size_t(std::max(1.0, steps * run_scale));
-}
+inline std::size_t scaled(double steps) { return std::size_t(std::max(1.0, steps * run_scale)); }
 
 inline calib::physics::Material test_material(double nu = 0.3)
 {
     return calib::physics::material_from_elastic(2700.0, 70e9, nu, "test");
 }
 
-inline std::shared_ptr<PlateOperator> make_plate(int nx, int ny, double h, Edges edges, double nu = 0.3,
-                                                 Loss loss = {}, double thickness = 0.002)
+inline std::shared_ptr<PlateOperator> make_plate(int nx, int ny, double h, Edges edges, double nu = 0.3, Loss loss = {},
+                                                 double thickness = 0.002)
 {
     PlateParams p;
     p.size_x_m = nx * h;
@@ -73,4 +70,4 @@ inline std::string describe(const Edges &e)
            " bottom=" + edge_kind_name(e.bottom) + " top=" + edge_kind_name(e.top);
 }
 
-}  // namespace plate_test
+} // namespace plate_test

@@ -37,7 +37,7 @@ Plot sample_plot()
     for (int i = 0; i <= 50; ++i) {
         x.push_back(10 + 20 * i);
         y1.push_back(std::sqrt(x.back()));
-        y2.push_back(i == 25 ? NAN : 20 + 0.01 * x.back());  // a gap
+        y2.push_back(i == 25 ? NAN : 20 + 0.01 * x.back()); // a gap
     }
     p.add({"sqrt", x, y1});
     p.add({"line with gap", x, y2, LineStyle::dashed});
@@ -102,7 +102,7 @@ double centroid(const Image &img, bool along_x, const std::function<double(Color
     return sw > 0 ? s / sw : NAN;
 }
 
-}  // namespace
+} // namespace
 
 TEST(Plot, LinesLandWhereTheFrameAndAxesPutThem)
 {
@@ -124,8 +124,10 @@ TEST(Plot, LinesLandWhereTheFrameAndAxesPutThem)
     // Frame lines are 1 px wide and centred on the plot area's edges.
     const double left = f.c0 + 0.5, right = f.c1 + 0.5, top = f.r0 + 0.5, bottom = f.r1 + 0.5;
     const double want_y = bottom - 0.3 * (bottom - top), want_x = left + 0.7 * (right - left);
-    const double got_y = centroid(img, false, [](Color c) { return c.g > c.r + 20 && c.g > c.b + 20 ? (c.g - c.r) / 200.0 : 0; });
-    const double got_x = centroid(img, true, [](Color c) { return c.b > c.r + 20 && c.b > c.g + 20 ? (c.b - c.r) / 255.0 : 0; });
+    const double got_y =
+        centroid(img, false, [](Color c) { return c.g > c.r + 20 && c.g > c.b + 20 ? (c.g - c.r) / 200.0 : 0; });
+    const double got_x =
+        centroid(img, true, [](Color c) { return c.b > c.r + 20 && c.b > c.g + 20 ? (c.b - c.r) / 255.0 : 0; });
     EXPECT_NEAR(got_y, want_y, 0.25);
     EXPECT_NEAR(got_x, want_x, 0.25);
 }
@@ -155,7 +157,7 @@ TEST(Plot, NanBreaksTheLine)
     };
     EXPECT_TRUE(red_in_column(2));
     EXPECT_TRUE(red_in_column(8));
-    EXPECT_FALSE(red_in_column(5));  // between the points at 4 and 6
+    EXPECT_FALSE(red_in_column(5)); // between the points at 4 and 6
 }
 
 TEST(Plot, PowerLawIsStraightOnLogLogAxes)
@@ -179,14 +181,18 @@ TEST(Plot, PowerLawIsStraightOnLogLogAxes)
         for (int xx = 0; xx < img.width; ++xx) {
             const Color c = img.at(xx, yy);
             if (c.r > 200 && c.g < 80 && c.b < 80) {
-                sx += xx; sy += yy; sxx += double(xx) * xx; sxy += double(xx) * yy; syy += double(yy) * yy;
+                sx += xx;
+                sy += yy;
+                sxx += double(xx) * xx;
+                sxy += double(xx) * yy;
+                syy += double(yy) * yy;
                 ++n;
             }
         }
     ASSERT_GT(n, 300u);
     const double mx = sx / n, my = sy / n;
     const double vx = sxx / n - mx * mx, vy = syy / n - my * my, cxy = sxy / n - mx * my;
-    EXPECT_LT(cxy / std::sqrt(vx * vy), -0.9999);  // y grows upwards: negative in image rows
+    EXPECT_LT(cxy / std::sqrt(vx * vy), -0.9999); // y grows upwards: negative in image rows
 }
 
 TEST(Plot, SvgIsWellFormedAndCarriesItsWords)
@@ -196,10 +202,10 @@ TEST(Plot, SvgIsWellFormedAndCarriesItsWords)
     EXPECT_TRUE(xml_check::well_formed(svg, why)) << why;
     // Escaped once, in <title> and in the drawn title.
     EXPECT_EQ(count(svg, "A &lt;title&gt; &amp; &quot;quotes&quot;"), 2u);
-    for (const char *word : {">frequency (Hz)</text>", ">velocity (m/s)</text>", ">sqrt</text>", ">line with gap</text>",
-                             ">1000</text>"})
+    for (const char *word :
+         {">frequency (Hz)</text>", ">velocity (m/s)</text>", ">sqrt</text>", ">line with gap</text>", ">1000</text>"})
         EXPECT_EQ(count(svg, word), 1u) << word;
-    EXPECT_EQ(count(svg, "<symbol"), 0u);  // no glyph outlines
+    EXPECT_EQ(count(svg, "<symbol"), 0u); // no glyph outlines
 }
 
 namespace {
@@ -215,12 +221,12 @@ std::vector<std::string> values_after(const std::string &s, const std::string &o
     return out;
 }
 
-}  // namespace
+} // namespace
 
 TEST(Plot, SvgIdsResolveAndDifferBetweenPlots)
 {
     Plot clipped = sample_plot();
-    clipped.y.max = 25.0;  // sqrt(x) leaves the plot area: the SVG needs a clip path
+    clipped.y.max = 25.0; // sqrt(x) leaves the plot area: the SVG needs a clip path
     const std::string a = render_svg(clipped);
     Plot other = clipped;
     other.title = "another";
@@ -228,7 +234,7 @@ TEST(Plot, SvgIdsResolveAndDifferBetweenPlots)
     const std::vector<std::string> va = values_after(a, " id=\"", "\""), vb = values_after(b, " id=\"", "\"");
     const std::set<std::string> ia(va.begin(), va.end()), ib(vb.begin(), vb.end());
     ASSERT_FALSE(ia.empty());
-    EXPECT_EQ(ia.size(), va.size());  // unique within the document
+    EXPECT_EQ(ia.size(), va.size()); // unique within the document
     for (const std::string &id : ia)
         EXPECT_EQ(ib.count(id), 0u) << id;
     std::vector<std::string> refs = values_after(a, "href=\"#", "\"");
@@ -260,8 +266,8 @@ TEST(Plot, PngDecodesToTheAskedSizeWithTheSeriesColours)
         orange += near(data + 3 * i, 255, 127, 14);
     }
     stbi_image_free(data);
-    EXPECT_GT(blue, 400u);    // a 2 px line across ~550 px
-    EXPECT_GT(orange, 200u);  // dashed: about half of that
+    EXPECT_GT(blue, 400u);   // a 2 px line across ~550 px
+    EXPECT_GT(orange, 200u); // dashed: about half of that
     std::filesystem::remove_all(temp_dir());
 }
 
@@ -276,9 +282,9 @@ TEST(Plot, TextIsDrawnAndBadTextDoesNotBlankThePlot)
     };
     Plot p = sample_plot();
     p.legend = LegendPosition::hidden;
-    EXPECT_GT(dark_rows(render_image(p), 0, 30), 100u);  // the title's glyphs
+    EXPECT_GT(dark_rows(render_image(p), 0, 30), 100u); // the title's glyphs
     p.title.clear();
-    EXPECT_EQ(dark_rows(render_image(p), 0, 8), 0u);  // above the top tick label
+    EXPECT_EQ(dark_rows(render_image(p), 0, 8), 0u); // above the top tick label
     // Invalid UTF-8 would put cairo in an error state and stop all drawing.
     p.title = "bad \xff\xfe utf-8 \xe2\x82";
     p.x.label = "ok \xc3\xa9";

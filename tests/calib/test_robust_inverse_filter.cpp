@@ -100,14 +100,13 @@ Score score(const Plates &plates, const pipeline::InverseFilterProblem &p, const
     return r;
 }
 
-}  // namespace
+} // namespace
 
 TEST(RobustInverseFilter, AnEnsembleOfTheNominalPlateIsThePlainDesignSampleForSample)
 {
     const pipeline::CalibrationResult plain = pipeline::calibrate(input(inverse_scene));
-    const pipeline::CalibrationResult one = pipeline::calibrate(input(
-        scene_text::replace(inverse_scene, "verify_tail_s = 0.01\n",
-                            "verify_tail_s = 0.01\nrobust = { E_scale = [1] }\n")));
+    const pipeline::CalibrationResult one = pipeline::calibrate(input(scene_text::replace(
+        inverse_scene, "verify_tail_s = 0.01\n", "verify_tail_s = 0.01\nrobust = { E_scale = [1] }\n")));
     ASSERT_EQ(plain.signals.size(), 4u);
     ASSERT_EQ(one.signals.size(), 4u);
     for (std::size_t f = 0; f < plain.signals.size(); f++)
@@ -130,7 +129,7 @@ TEST(RobustInverseFilter, TwoIdenticalPlatesStackToThePlainDesign)
         o.minimax_iterations = 0;
         const pipeline::InverseFilterDesign one = pipeline::design_inverse_filter(H, p, o);
         const pipeline::InverseFilterDesign two = pipeline::design_inverse_filter(Plates{&H, &H}, p, o);
-        EXPECT_NEAR(two.lambda_max / one.lambda_max, 2.0, 1e-9);  // G doubles
+        EXPECT_NEAR(two.lambda_max / one.lambda_max, 2.0, 1e-9); // G doubles
         EXPECT_NEAR(two.beta / one.beta, 2.0, 1e-9);
         EXPECT_LT(max_relative_difference(one.drive, two.drive), 1e-9) << "focus " << f;
         // With the minimax refinement: every plate's |w| is the same, so the
@@ -139,7 +138,7 @@ TEST(RobustInverseFilter, TwoIdenticalPlatesStackToThePlainDesign)
         const pipeline::InverseFilterDesign m1 = pipeline::minimax_design(H, p, o);
         const pipeline::InverseFilterDesign m2 = pipeline::minimax_design(Plates{&H, &H}, p, o);
         EXPECT_LT(max_relative_difference(m1.drive, m2.drive), 1e-6) << "focus " << f;
-        EXPECT_GT(max_relative_difference(m1.drive, one.drive), 1e-3);  // the refinement moved it
+        EXPECT_GT(max_relative_difference(m1.drive, one.drive), 1e-3); // the refinement moved it
     }
 }
 
@@ -150,8 +149,8 @@ TEST(RobustInverseFilter, StackedDesignIsNoWorseOverThePlatesThanEitherSinglePla
     pipeline::CalibrationInput in = input(inverse_scene);
     char step[64];
     std::snprintf(step, sizeof step, "time_step_s = %.17g\n", 0.999 * in.plate->max_time_step());
-    in = input(scene_text::replace(inverse_scene, "precision = \"double\"\n",
-                                   std::string("precision = \"double\"\n") + step));
+    in = input(
+        scene_text::replace(inverse_scene, "precision = \"double\"\n", std::string("precision = \"double\"\n") + step));
     const TransferMatrix H0 = pipeline::perturbed_transfer(in, in, in.exciters.positions, true);
     const pipeline::Perturbation member =
         pipeline::loss_case(in, 0.6 * pipeline::loss_factor(*in.plate, in.pulse.centre_hz), "ensemble");
@@ -162,7 +161,7 @@ TEST(RobustInverseFilter, StackedDesignIsNoWorseOverThePlatesThanEitherSinglePla
     const Plates both{&H0, &H1};
 
     pipeline::InverseFilterOptions o;
-    o.minimax_iterations = 0;  // the least-squares objective itself
+    o.minimax_iterations = 0; // the least-squares objective itself
     for (std::size_t f = 0; f < in.foci.points.size(); f++) {
         const pipeline::InverseFilterProblem p = problem_of(in, H0, f);
         const pipeline::InverseFilterDesign s = pipeline::design_inverse_filter(both, p, o);
@@ -218,7 +217,7 @@ TEST(RobustInverseFilter, MarginLevelCentresTheThresholdOverThePlates)
         const double P = std::min(v[0].foci[f].peak_m, v[1].foci[f].peak_m);
         const double G = std::max(elsewhere(v[0].foci[f]), elsewhere(v[1].foci[f]));
         EXPECT_NEAR(P * G / (T * T), 1.0, 2e-3) << "focus " << f;
-        EXPECT_GT(P, T) << "focus " << f;  // the focus crosses, nothing else does, on both plates
+        EXPECT_GT(P, T) << "focus " << f; // the focus crosses, nothing else does, on both plates
         EXPECT_LT(G, T) << "focus " << f;
     }
 }
@@ -236,9 +235,8 @@ TEST(RobustInverseFilter, SceneTakesTheCombinationAndRefusesBadSpecsInOneLine)
     EXPECT_NO_THROW(pipeline::check_feasible(in));
 
     auto bad = [&](const std::string &spec) {
-        return scene_text::error_of(
-            scene_text::replace(inverse_scene, "verify_tail_s = 0.01\n",
-                                "verify_tail_s = 0.01\nrobust = " + spec + "\n"));
+        return scene_text::error_of(scene_text::replace(inverse_scene, "verify_tail_s = 0.01\n",
+                                                        "verify_tail_s = 0.01\nrobust = " + spec + "\n"));
     };
     const std::string level = bad("{ E_scale = [0.97], level = \"worst\" }");
     EXPECT_EQ(level.rfind("scene.toml: calibration.robust.level: ", 0), 0u) << level;

@@ -49,7 +49,8 @@ pipeline::Verification verify_on(const pipeline::CalibrationInput &in, const pip
                                  const Perturbation &p, pipeline::TransferMatrix *H_out = nullptr)
 {
     const pipeline::CalibrationInput pin = pipeline::perturbed_input(in, p);
-    pipeline::TransferMatrix H = pipeline::perturbed_transfer(in, pin, pipeline::moved_exciters(in, r.exciters, p), true);
+    pipeline::TransferMatrix H =
+        pipeline::perturbed_transfer(in, pin, pipeline::moved_exciters(in, r.exciters, p), true);
     const pipeline::StoredTable t = stored(r, in);
     pipeline::Verification v = pipeline::verify_signals_with(pin, H, t.signals, t.rate_hz);
     if (H_out)
@@ -67,7 +68,7 @@ std::string first_line_of_refusal(const std::string &text)
     return "";
 }
 
-}  // namespace
+} // namespace
 
 TEST(Robustness, ZeroPerturbationReproducesTheNominalVerificationExactly)
 {
@@ -119,7 +120,7 @@ TEST(Robustness, SameScaleOfEAndRhoKeepsTheWavesAndDividesDisplacement)
         peak = std::max(peak, std::abs(double(H0.data[i])));
         err = std::max(err, std::abs(s * double(Hs.data[i]) - double(H0.data[i])));
     }
-    EXPECT_LT(err, 1e-6 * peak);  // float storage of a double simulation
+    EXPECT_LT(err, 1e-6 * peak); // float storage of a double simulation
     for (std::size_t f = 0; f < vs.foci.size(); f++) {
         const pipeline::FocusMetrics &a = vs.foci[f], &b = v0.foci[f];
         EXPECT_NEAR(s * a.peak_m / b.peak_m, 1.0, 1e-5) << "focus " << f;
@@ -155,8 +156,8 @@ TEST(Robustness, ImpossibleBoxesAreRefusedInOneLineNamingTheKey)
     const pipeline::CalibrationInput in = input(base_scene);
     char step[64];
     std::snprintf(step, sizeof step, "time_step_s = %.17g\n", 0.999 * in.plate->max_time_step());
-    std::string forced = scene_text::replace(base_scene, "precision = \"double\"\n",
-                                             std::string("precision = \"double\"\n") + step);
+    std::string forced =
+        scene_text::replace(base_scene, "precision = \"double\"\n", std::string("precision = \"double\"\n") + step);
     // (A loss range below the nominal 0.041 instead of acrylic's 0.030-0.050, which would break it first.)
     const std::string box = "[tolerance]\nloss = [0.030, 0.040]\n";
     EXPECT_EQ(first_line_of_refusal(forced + box + "loss_scale = [0.5]\n"), "");
@@ -170,8 +171,8 @@ TEST(Robustness, ImpossibleBoxesAreRefusedInOneLineNamingTheKey)
 
 TEST(Robustness, AnEnsembleOfOneIsTheNominalDesign)
 {
-    const std::string with_robust = scene_text::replace(base_scene, "verify_tail_s = 0.01\n",
-                                                        "verify_tail_s = 0.01\nrobust = { E_scale = [1] }\n");
+    const std::string with_robust =
+        scene_text::replace(base_scene, "verify_tail_s = 0.01\n", "verify_tail_s = 0.01\nrobust = { E_scale = [1] }\n");
     const pipeline::CalibrationResult plain = pipeline::calibrate(input(base_scene));
     const pipeline::CalibrationResult one = pipeline::calibrate(input(with_robust));
     ASSERT_EQ(plain.signals.size(), one.signals.size());
@@ -191,18 +192,18 @@ TEST(Robustness, AnEnsembleOfOneIsTheNominalDesign)
     EXPECT_TRUE(differs);
     ASSERT_TRUE(r2.tolerance);
     EXPECT_EQ(r2.tolerance->ensemble.size(), 1u);
-    ASSERT_EQ(r2.tolerance->cases.size(), 1u);  // without [tolerance]: over the ensemble
+    ASSERT_EQ(r2.tolerance->cases.size(), 1u); // without [tolerance]: over the ensemble
     EXPECT_TRUE(r2.tolerance->cases[0].nominal_design.has_value());
 }
 
 TEST(Robustness, ToleranceSectionParsesTheDocumentedKeys)
 {
-    const scene::Scene s = scene::parse_scene(std::string(base_scene) +
-                                                  "[tolerance]\nE_rel = 0.03\nrho_rel = 0.03\nthickness_rel = 0.05\n"
-                                                  "loss = [0.030, 0.050]\nloss_scale = [0.5, 2]\n"
-                                                  "exciter_position_m = 0.002\ntemperature_k = 10\n"
-                                                  "speed_compensation = true\n",
-                                              "robust.toml");
+    const scene::Scene s =
+        scene::parse_scene(std::string(base_scene) + "[tolerance]\nE_rel = 0.03\nrho_rel = 0.03\nthickness_rel = 0.05\n"
+                                                     "loss = [0.030, 0.050]\nloss_scale = [0.5, 2]\n"
+                                                     "exciter_position_m = 0.002\ntemperature_k = 10\n"
+                                                     "speed_compensation = true\n",
+                           "robust.toml");
     ASSERT_TRUE(s.tolerance);
     EXPECT_TRUE(s.tolerance->speed_compensation);
     EXPECT_EQ(s.tolerance->youngs_rel, 0.03);
@@ -211,15 +212,16 @@ TEST(Robustness, ToleranceSectionParsesTheDocumentedKeys)
     // Acrylic's dE/dT from the material library: +-10 K moves E by -+4 %.
     const pipeline::CalibrationInput in = input(std::string(base_scene) + "[tolerance]\ntemperature_k = 10\n");
     const std::vector<Perturbation> cases = pipeline::one_at_a_time(in, *in.tolerance);
-    ASSERT_EQ(cases.size(), 4u);  // the material's loss range (2) and the temperature (2)
+    ASSERT_EQ(cases.size(), 4u); // the material's loss range (2) and the temperature (2)
     EXPECT_NEAR(cases[2].youngs_scale, 1.04, 1e-12);
     EXPECT_NEAR(cases[3].youngs_scale, 0.96, 1e-12);
     EXPECT_NEAR(pipeline::loss_factor(*pipeline::perturbed_input(in, cases[0]).plate, 1200), 0.030, 1e-12);
     // The calibration temperature the table stores (default 23 C), and the
     // bounds the table's panel section holds both to.
     EXPECT_EQ(in.plate_temperature_c, 23.0);
-    const std::string warm = std::string(base_scene).replace(base_scene.find("thickness_m = 0.002"), 19,
-                                                             "thickness_m = 0.002\ntemperature_c = 35.5");
+    const std::string warm =
+        std::string(base_scene)
+            .replace(base_scene.find("thickness_m = 0.002"), 19, "thickness_m = 0.002\ntemperature_c = 35.5");
     EXPECT_EQ(input(warm).plate_temperature_c, 35.5);
     auto refusal = [](const std::string &text) {
         try {
@@ -257,7 +259,7 @@ TEST(Robustness, MarginLevelCentresTheThresholdOverTheMemberPlates)
         const double P = std::min(v0.foci[f].peak_m, v1.foci[f].peak_m);
         const double Gm = std::max(G(v0.foci[f]), G(v1.foci[f]));
         EXPECT_NEAR(P * Gm / (T * T), 1.0, 2e-3) << "focus " << f;
-        EXPECT_NE(v0.foci[f].peak_m, in.pulse.amplitude_m);  // not the scene's amplitude
+        EXPECT_NE(v0.foci[f].peak_m, in.pulse.amplitude_m); // not the scene's amplitude
     }
 }
 
@@ -275,7 +277,7 @@ TEST(Robustness, EveryPlateIsJudgedOnTheScenesArea)
     soft.youngs_scale = 0.9;
     const pipeline::CalibrationInput pin = pipeline::perturbed_input(in, soft);
     const double own_half = physics::kirchhoff_wavelength_m(pin.plate->kappa(), in.pulse.centre_hz) / 2;
-    EXPECT_NEAR(own_half / scene_half, std::pow(0.9, 0.25), 1e-9);  // not vacuous: the plate's own is shorter
+    EXPECT_NEAR(own_half / scene_half, std::pow(0.9, 0.25), 1e-9); // not vacuous: the plate's own is shorter
     EXPECT_EQ(pipeline::judged_lambda_half_m(pin), scene_half);
     EXPECT_EQ(pipeline::judged_lambda_half_m(in), scene_half);
     const pipeline::Verification v = verify_on(in, r, soft);
@@ -338,7 +340,7 @@ TEST(Robustness, SpeedCompensationPlaysTheNominalFieldOnAFasterOrSlowerPanel)
     for (const Perturbation &p : {soft, thick}) {
         const pipeline::CalibrationInput pin = pipeline::perturbed_input(in, p);
         const double alpha = pin.plate->kappa() / in.plate->kappa();
-        const double mass = p.density_scale * p.thickness_scale;  // m / m0
+        const double mass = p.density_scale * p.thickness_scale; // m / m0
         const pipeline::TransferMatrix H = pipeline::perturbed_transfer(in, pin, r.exciters, true);
         const auto s = pipeline::stretched(t.signals, r.exciters.size(), alpha);
         const pipeline::Verification plain = pipeline::verify_signals_with(pin, H, t.signals, t.rate_hz);
@@ -361,9 +363,9 @@ TEST(Robustness, SpeedCompensationPlaysTheNominalFieldOnAFasterOrSlowerPanel)
     // stretches is refused in one line naming the key.
     pipeline::CalibrationInput c = input(base_scene + "\n[tolerance]\nE_rel = 0.03\nloss_scale = [1.5]\n"
                                                       "speed_compensation = true\n");
-    const auto cases = pipeline::evaluate_cases(c, r.exciters, pipeline::one_at_a_time(c, *c.tolerance), t,
-                                                nullptr, {}, nullptr);
-    ASSERT_EQ(cases.size(), 5u);  // E +-3 %, acrylic's loss range, loss x1.5
+    const auto cases =
+        pipeline::evaluate_cases(c, r.exciters, pipeline::one_at_a_time(c, *c.tolerance), t, nullptr, {}, nullptr);
+    ASSERT_EQ(cases.size(), 5u); // E +-3 %, acrylic's loss range, loss x1.5
     for (const pipeline::ToleranceCase &k : cases) {
         EXPECT_EQ(k.compensated.has_value(), k.perturbation.factor == "E") << k.perturbation.name;
         if (k.compensated) {
@@ -395,8 +397,9 @@ TEST(Robustness, TheStudyReportsThePlatesAsTheDeviceCompensatesThem)
     const std::string scene = (dir / "box.toml").string();
     {
         std::ofstream f(scene);
-        f << base_scene << "\n[tolerance]\nE_rel = 0.03\nthickness_rel = 0.05\nloss_scale = [1.5]\n"
-                           "speed_compensation = true\n";
+        f << base_scene
+          << "\n[tolerance]\nE_rel = 0.03\nthickness_rel = 0.05\nloss_scale = [1.5]\n"
+             "speed_compensation = true\n";
     }
     study::RobustnessOptions o;
     o.scene_path = scene;
@@ -440,7 +443,7 @@ TEST(Robustness, TheStudyReportsThePlatesAsTheDeviceCompensatesThem)
         }
         compensated++;
         EXPECT_NEAR(std::stod(row[std::size_t(comp)]), nominal, 0.02) << row[0];
-        EXPECT_GT(std::abs(std::stod(row[std::size_t(contrast)]) - nominal), 0.05) << row[0];  // not vacuous
+        EXPECT_GT(std::abs(std::stod(row[std::size_t(contrast)]) - nominal), 0.05) << row[0]; // not vacuous
     }
     EXPECT_EQ(compensated, 4);
     EXPECT_NE(md.find("worst over the box, speed compensated"), std::string::npos);
@@ -454,9 +457,10 @@ TEST(Robustness, ATableStatesItsPanelOnlyWhenItsDEdTIsKnown)
     // custom material has none, so no panel section (a device must not take
     // 0 for it), unless the scene states E_per_k.
     const std::string acrylic = "material = \"acrylic\"";
-    const std::string custom = std::string(base_scene).replace(
-        base_scene.find(acrylic), acrylic.size(),
-        "material = { name = \"pc\", density_kg_m3 = 1200, youngs_pa = 2.4e9, poisson = 0.37 }");
+    const std::string custom =
+        std::string(base_scene)
+            .replace(base_scene.find(acrylic), acrylic.size(),
+                     "material = { name = \"pc\", density_kg_m3 = 1200, youngs_pa = 2.4e9, poisson = 0.37 }");
     const std::string path = (std::filesystem::temp_directory_path() / "robust-panel.htab").string();
     auto panel_of = [&](const std::string &text, haptic_panel *p) {
         const pipeline::CalibrationInput in = input(text);
@@ -470,12 +474,13 @@ TEST(Robustness, ATableStatesItsPanelOnlyWhenItsDEdTIsKnown)
         return rc;
     };
     haptic_panel p{};
-    ASSERT_EQ(panel_of(std::string(base_scene).replace(base_scene.find("thickness_m = 0.002"), 19,
-                                                       "thickness_m = 0.002\ntemperature_c = 31"),
-                       &p),
-              0);
+    ASSERT_EQ(
+        panel_of(std::string(base_scene)
+                     .replace(base_scene.find("thickness_m = 0.002"), 19, "thickness_m = 0.002\ntemperature_c = 31"),
+                 &p),
+        0);
     EXPECT_EQ(p.temperature_c, 31.0);
-    EXPECT_EQ(p.youngs_per_k, -4e-3);  // acrylic's, from the material library
+    EXPECT_EQ(p.youngs_per_k, -4e-3); // acrylic's, from the material library
     EXPECT_EQ(panel_of(custom, &p), -1);
     ASSERT_EQ(panel_of(custom + "\n[tolerance]\nE_per_k = 0\n", &p), 0);
     EXPECT_EQ(p.youngs_per_k, 0.0);

@@ -23,7 +23,7 @@ namespace {
 
 constexpr double pi = std::numbers::pi;
 
-}  // namespace
+} // namespace
 
 TEST(RuleHomes, FormatIsPrintfWhateverTheLength)
 {
@@ -35,7 +35,7 @@ TEST(RuleHomes, FormatIsPrintfWhateverTheLength)
     const std::string f = wide + " %g " + wide;
     char b[1024];
     std::snprintf(b, sizeof b, f.c_str(), 1.5);
-    EXPECT_EQ(io::fmt(f.c_str(), 1.5), b);  // beyond the first buffer: nothing cut
+    EXPECT_EQ(io::fmt(f.c_str(), 1.5), b); // beyond the first buffer: nothing cut
 }
 
 TEST(RuleHomes, ReadFileGivesEveryByteOrNothing)
@@ -63,7 +63,8 @@ TEST(RuleHomes, KirchhoffFormsFromKappa)
                 EXPECT_EQ(physics::kirchhoff_phase_velocity_m_s(kappa, f), physics::kirchhoff_phase_velocity(m, d, f));
                 EXPECT_EQ(physics::kirchhoff_group_velocity_m_s(kappa, f), physics::kirchhoff_group_velocity(m, d, f));
                 // lambda = c / f.
-                EXPECT_NEAR(physics::kirchhoff_wavelength_m(kappa, f) * f / physics::kirchhoff_phase_velocity_m_s(kappa, f),
+                EXPECT_NEAR(physics::kirchhoff_wavelength_m(kappa, f) * f /
+                                physics::kirchhoff_phase_velocity_m_s(kappa, f),
                             1.0, 1e-15);
             }
     }
@@ -104,7 +105,7 @@ TEST(RuleHomes, PanelYoungsPerKelvinIsTheBoxsElseTheMaterials)
     pipeline::ToleranceSpec box;
     EXPECT_EQ(pipeline::panel_youngs_per_kelvin(nullptr, acrylic), acrylic.youngs_per_kelvin);
     EXPECT_EQ(pipeline::panel_youngs_per_kelvin(&box, acrylic), acrylic.youngs_per_kelvin);
-    box.youngs_per_kelvin = 0.0;  // stated: 0 is the box's figure, not "unknown"
+    box.youngs_per_kelvin = 0.0; // stated: 0 is the box's figure, not "unknown"
     EXPECT_EQ(pipeline::panel_youngs_per_kelvin(&box, acrylic), 0.0);
     box.youngs_per_kelvin = -1e-3;
     EXPECT_EQ(pipeline::panel_youngs_per_kelvin(&box, acrylic), -1e-3);

@@ -65,14 +65,14 @@ FocusMetrics measured(double peak_m, double others_m, double whole_m, bool whole
     return m;
 }
 
-}  // namespace
+} // namespace
 
 TEST(SafeRangeRule, ThresholdOverThePeakToThresholdOverWhatTheVerdictJudges)
 {
     // 10 um at the focus, 3 um at another focus, 4 um elsewhere in the area.
     const haptic_gain_range a = measured(10 * um, 3 * um, 4 * um, true).gain_range(thr);
     EXPECT_DOUBLE_EQ(a.lo, 0.5);
-    EXPECT_DOUBLE_EQ(a.hi, 1.25);  // the area's 4 um, the larger
+    EXPECT_DOUBLE_EQ(a.hi, 1.25); // the area's 4 um, the larger
     EXPECT_EQ(pipeline::safe_range_text(a), "-6.0 .. +1.9");
     // The other focus the larger: it sets hi.
     EXPECT_DOUBLE_EQ(measured(10 * um, 4 * um, 2 * um, true).gain_range(thr).hi, 1.25);
@@ -107,13 +107,13 @@ TEST(SafeRangeRule, GainsNoTableHoldsAreNoneADevicePlays)
 {
     // Past HAPTIC_TABLE_RANGE_MAX_GAIN (1e6, 120 dB) every nonzero int16
     // sample clips: hi there is unbounded; a lo there passes at no gain.
-    const haptic_gain_range far = measured(10 * um, 1e-13, 0, false).gain_range(thr);  // hi 5e7
+    const haptic_gain_range far = measured(10 * um, 1e-13, 0, false).gain_range(thr); // hi 5e7
     EXPECT_DOUBLE_EQ(far.lo, 0.5);
     EXPECT_EQ(far.hi, inf);
-    const haptic_gain_range at = measured(10 * um, 5e-12, 0, false).gain_range(thr);  // hi 1e6, held
+    const haptic_gain_range at = measured(10 * um, 5e-12, 0, false).gain_range(thr); // hi 1e6, held
     EXPECT_LE(at.hi, HAPTIC_TABLE_RANGE_MAX_GAIN);
     EXPECT_GT(at.hi, 0.99e6);
-    const haptic_gain_range still = measured(1e-13, 0, 0, false).gain_range(thr);  // lo 5e7
+    const haptic_gain_range still = measured(1e-13, 0, 0, false).gain_range(thr); // lo 5e7
     EXPECT_EQ(still.lo, HAPTIC_TABLE_RANGE_MAX_GAIN);
     EXPECT_EQ(still.hi, HAPTIC_TABLE_RANGE_MAX_GAIN);
     EXPECT_EQ(pipeline::safe_range_text(still), "none");
@@ -161,15 +161,15 @@ TEST(SafeRangeRule, AtGainOneItIsTheVerdict)
 // Real tables.
 namespace {
 
-constexpr double e = 0.02;  // the step either side of an end: covers the int16 re-quantization (below)
+constexpr double e = 0.02; // the step either side of an end: covers the int16 re-quantization (below)
 
 struct TableCase {
     pipeline::CalibrationInput in;
     pipeline::CalibrationResult result;
-    std::string table;                         // the table write_table wrote
-    std::vector<pipeline::Point> exciters;     // read back from it
-    std::vector<std::vector<int16_t>> stored;  // its samples, [focus][frame * channels + c]
-    pipeline::TransferMatrix H;                // of its exciters, as `calibgen verify` simulates it
+    std::string table;                        // the table write_table wrote
+    std::vector<pipeline::Point> exciters;    // read back from it
+    std::vector<std::vector<int16_t>> stored; // its samples, [focus][frame * channels + c]
+    pipeline::TransferMatrix H;               // of its exciters, as `calibgen verify` simulates it
     double rate_hz = 0;
 };
 
@@ -230,7 +230,7 @@ const TableCase &full_scale()
 
 struct Scaled {
     pipeline::Verification v;
-    double k = 1;  // played at gains / k against the threshold / k
+    double k = 1; // played at gains / k against the threshold / k
 };
 
 // The verdict of the table's samples, focus f played at gains[f]: each sample
@@ -261,7 +261,7 @@ Scaled verify_scaled(const TableCase &c, const std::vector<double> &gains, bool 
         int loudest = 0;
         for (int16_t &x : scaled[f]) {
             const long q = std::lround(double(x) * gains[f] / s.k);
-            EXPECT_LE(std::labs(q), 32767);  // never clipped
+            EXPECT_LE(std::labs(q), 32767); // never clipped
             x = static_cast<int16_t>(q);
             loudest = std::max(loudest, std::abs(int(x)));
         }
@@ -284,9 +284,9 @@ void check_two_ways(const TableCase &c, bool passes_as_stored)
     const std::size_t K = c.in.foci.points.size();
     ASSERT_EQ(K, 2u);
     ASSERT_EQ(c.stored.size(), K);
-    for (std::size_t f = 0; f < K; f++)  // the table holds the calibration's samples
-        ASSERT_TRUE(std::equal(c.result.signals[f].samples.begin(), c.result.signals[f].samples.end(),
-                               c.stored[f].begin()));
+    for (std::size_t f = 0; f < K; f++) // the table holds the calibration's samples
+        ASSERT_TRUE(
+            std::equal(c.result.signals[f].samples.begin(), c.result.signals[f].samples.end(), c.stored[f].begin()));
 
     for (bool whole_area : {true, false}) {
         SCOPED_TRACE(whole_area ? "whole area" : "foci only");
@@ -364,11 +364,11 @@ void check_stored(const TableCase &c)
         EXPECT_EQ(got.hi, want.hi) << "focus " << f;
     }
     haptic_gain_range none{};
-    EXPECT_EQ(haptic_table_gain_range(&t, t.focus_count, &none), -1);  // no such focus
+    EXPECT_EQ(haptic_table_gain_range(&t, t.focus_count, &none), -1); // no such focus
     haptic_table_close(&t);
 }
 
-}  // namespace
+} // namespace
 
 TEST(SafeRangeTable, GhostedTableTheRangeIsTheVerdictOfTheScaledTable)
 {
@@ -405,4 +405,4 @@ struct RemoveTables : ::testing::Environment {
     }
 };
 const auto *const remove_tables = ::testing::AddGlobalTestEnvironment(new RemoveTables);
-}  // namespace
+} // namespace

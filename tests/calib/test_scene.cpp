@@ -14,8 +14,8 @@ using calib::engine::EdgeKind;
 
 namespace {
 
-using scene_text::replace;
 using scene_text::error_of;
+using scene_text::replace;
 
 const char *good = R"(
 [plate]
@@ -35,7 +35,7 @@ precision = "double"
 threads = 1
 )";
 
-}  // namespace
+} // namespace
 
 TEST(Scene, GoodSceneGivesThePlateItDescribes)
 {
@@ -86,7 +86,8 @@ TEST(Scene, BadValuesNameTheKey)
               "scene.toml: plate.thickness_m: must be > 0, got -1");
     EXPECT_EQ(error_of(replace(good, "thickness_m = 0.002", "thickness_m = \"thin\"")),
               "scene.toml: plate.thickness_m: must be a number, got string");
-    EXPECT_EQ(error_of(replace(good, "thickness_m = 0.002\n", "")), "scene.toml: plate.thickness_m: missing (required)");
+    EXPECT_EQ(error_of(replace(good, "thickness_m = 0.002\n", "")),
+              "scene.toml: plate.thickness_m: missing (required)");
     EXPECT_EQ(error_of(replace(good, "size_m = [0.7, 0.5]", "size_m = [0.7]")),
               "scene.toml: plate.size_m: must be an array of 2 numbers");
     EXPECT_EQ(error_of(replace(good, "material = \"acrylic\"", "material = \"cheese\"")),
@@ -102,13 +103,15 @@ TEST(Scene, BadValuesNameTheKey)
     EXPECT_EQ(error_of(replace(good, "t60_s = [0.2, 0.1]", "t60_s = [0.1, 0.2]")),
               "scene.toml: plate.loss: loss: T60 must not grow with frequency (0.1 s at 100 Hz, 0.2 s at 1000 Hz)");
     EXPECT_EQ(error_of(replace(good, "f_max_hz = 1000\n", "")),
-              "scene.toml: simulation.f_max_hz: missing (required unless grid_spacing_m is given or the scene has a [pulse])");
+              "scene.toml: simulation.f_max_hz: missing (required unless grid_spacing_m is given or the scene has a "
+              "[pulse])");
 }
 
 TEST(Scene, UnknownKeysAndSectionsAreRefusedWithTheKnownOnes)
 {
-    EXPECT_EQ(error_of(replace(good, "thickness_m = 0.002", "thickness_m = 0.002\ncolour = \"red\"")),
-              "scene.toml: plate.colour: unknown key (known: size_m, thickness_m, material, edges, loss, temperature_c)");
+    EXPECT_EQ(
+        error_of(replace(good, "thickness_m = 0.002", "thickness_m = 0.002\ncolour = \"red\"")),
+        "scene.toml: plate.colour: unknown key (known: size_m, thickness_m, material, edges, loss, temperature_c)");
     EXPECT_EQ(error_of(std::string(good) + "\n[plate_extra]\nx = 1\n"),
               "scene.toml: plate_extra: unknown section (known: name, plate, simulation, active_area, exciters, foci, "
               "pulse, calibration, effects, tolerance)");

@@ -29,7 +29,7 @@ namespace {
 
 #ifdef HAPTIC_ASAN
 constexpr int mutations_per_scene = 2;
-constexpr double seconds_per_run = 30;  // sanitized code runs several times slower
+constexpr double seconds_per_run = 30; // sanitized code runs several times slower
 #else
 constexpr int mutations_per_scene = 8;
 constexpr double seconds_per_run = 10;
@@ -123,14 +123,14 @@ std::string mutate(const std::string &text, std::mt19937_64 &rng, std::string &w
         std::string &l = lines[t.line];
         const std::string old = l.substr(t.pos, t.len);
         std::string repl;
-        if (kind == 0) {  // scale by 10^U(-9, 9)
+        if (kind == 0) { // scale by 10^U(-9, 9)
             const double v = std::strtod(old.c_str(), nullptr);
             const double e = std::uniform_real_distribution<double>(-9, 9)(rng);
             char b[64];
             std::snprintf(b, sizeof b, "%.6g", v * std::pow(10.0, e));
             repl = b;
             if (repl.find_first_of(".en") == std::string::npos)
-                repl += ".0";  // keep it a TOML float
+                repl += ".0"; // keep it a TOML float
         } else if (kind == 1) {
             repl = old[0] == '-' ? old.substr(1) : "-" + old;
         } else {
@@ -147,7 +147,7 @@ std::string mutate(const std::string &text, std::mt19937_64 &rng, std::string &w
         const size_t i = keys[pick(keys.size())];
         what = "duplicated: " + lines[i];
         lines.insert(lines.begin() + long(i), lines[i]);
-    } else if (!keys.empty()) {  // wrong type
+    } else if (!keys.empty()) { // wrong type
         const size_t i = keys[pick(keys.size())];
         std::string &l = lines[i];
         const char *values[] = {"\"text\"", "true", "[1, 2, 3]", "{ a = 1 }", "1979-05-27"};
@@ -160,9 +160,9 @@ std::string mutate(const std::string &text, std::mt19937_64 &rng, std::string &w
 }
 
 struct Outcome {
-    int exit_code = -1;  // -1: no normal exit (a signal)
+    int exit_code = -1; // -1: no normal exit (a signal)
     std::string out, err;
-    double seconds = 0;  // processor time (user + system) of the run
+    double seconds = 0; // processor time (user + system) of the run
 };
 
 double children_cpu_s()
@@ -176,8 +176,9 @@ Outcome run(const std::string &args, const fs::path &dir)
 {
     const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
     // A hang is killed, and then counts as one.
-    const std::string cmd = "timeout -s KILL " + std::to_string(int(3 * seconds_per_run)) + " \"" HAPTIC_CALIBGEN
-                            "\" " + args + " > \"" + out.string() + "\" 2> \"" + err.string() + "\"";
+    const std::string cmd = "timeout -s KILL " + std::to_string(int(3 * seconds_per_run)) +
+                            " \"" HAPTIC_CALIBGEN "\" " + args + " > \"" + out.string() + "\" 2> \"" + err.string() +
+                            "\"";
     // Processor time, not wall time: on a shared machine the wall clock of
     // a one-second run can stretch tenfold; the timeout above catches hangs.
     const double cpu0 = children_cpu_s();
@@ -234,7 +235,7 @@ std::string judge(const Outcome &o, const fs::path &output, const fs::path &dir)
         if (!output.empty() && fs::exists(output))
             return "failed but left " + output.string();
     }
-    for (const auto &e : fs::directory_iterator(dir))  // no temporary or partial file left behind
+    for (const auto &e : fs::directory_iterator(dir)) // no temporary or partial file left behind
         if (e.path().filename() != "scene.toml" && e.path() != output)
             return "left " + e.path().string();
     return {};
@@ -270,13 +271,17 @@ TEST(SceneMutations, EveryRunEndsCleanlyWithinSeconds)
             // It plans without simulating, so its time limit may be generous:
             // the shipped scenes then pass in every build, and the mutations
             // that blow up the plan are still refused.
-            const Outcome dry = run("calibrate \"" + file.string() + "\" --dry-run --max-memory 4000 --max-seconds 60", dir);
+            const Outcome dry =
+                run("calibrate \"" + file.string() + "\" --dry-run --max-memory 4000 --max-seconds 60", dir);
             const std::string v1 = judge(dry, {}, dir);
             EXPECT_EQ(v1, "") << "calibrate --dry-run, " << context;
             // An impulse response from near the middle of the shipped plate.
             const fs::path csv = dir / "traces.csv";
-            const Outcome sim = run("simulate \"" + file.string() + "\" --source 0.11,0.09 --record 0.05,0.05 "
-                                    "--duration 0.002 -o \"" + csv.string() + "\"" + limits, dir);
+            const Outcome sim = run("simulate \"" + file.string() +
+                                        "\" --source 0.11,0.09 --record 0.05,0.05 "
+                                        "--duration 0.002 -o \"" +
+                                        csv.string() + "\"" + limits,
+                                    dir);
             const std::string v2 = judge(sim, csv, dir);
             EXPECT_EQ(v2, "") << "simulate, " << context;
             dry_successes += dry.exit_code == 0;
@@ -321,14 +326,14 @@ TEST(SceneMutations, ScenesThatCannotFitAreRefusedAtOnce)
         EXPECT_EQ(std::count(o.err.begin(), o.err.end(), '\n'), 1) << o.err;
         EXPECT_NE(o.err.find(c.key), std::string::npos) << o.err;
         EXPECT_FALSE(fs::exists(table));
-        if (c.args.empty()) {  // the memory refusal names the prediction and the machine's limit
+        if (c.args.empty()) { // the memory refusal names the prediction and the machine's limit
             EXPECT_NE(o.err.find("MB peak memory"), std::string::npos) << o.err;
         }
 #ifndef HAPTIC_ASAN
-        EXPECT_LT(o.seconds, 2.0) << c.to;  // processor time (the wall time is the machine's load)
+        EXPECT_LT(o.seconds, 2.0) << c.to; // processor time (the wall time is the machine's load)
 #endif
     }
     fs::remove_all(dir);
 }
 
-}  // namespace
+} // namespace

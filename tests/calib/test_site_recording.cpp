@@ -28,10 +28,12 @@ namespace {
 // A small lossy acrylic plate (the demonstrator scaled down), in the given precision.
 std::string plate_scene(const std::string &precision)
 {
-    return scene_text::replace(scene_text::load("sites.toml"), "precision = \"double\"", "precision = \"" + precision + "\"");
+    return scene_text::replace(scene_text::load("sites.toml"), "precision = \"double\"",
+                               "precision = \"" + precision + "\"");
 }
 
-const std::vector<pipeline::Point> sites = {{0.021, 0.033}, {0.273, 0.205}, {0.015, 0.12}, {0.15, 0.228}, {0.2871, 0.0173}};
+const std::vector<pipeline::Point> sites = {
+    {0.021, 0.033}, {0.273, 0.205}, {0.015, 0.12}, {0.15, 0.228}, {0.2871, 0.0173}};
 const pipeline::Point source{0.1, 0.1};
 
 // Every step of the one-step impulse's response at the sites (receivers).
@@ -54,7 +56,7 @@ double peak_of(const std::vector<std::vector<double>> &x)
     return m;
 }
 
-}  // namespace
+} // namespace
 
 // The band-limited force's response read every M-th step off the field
 // copies = the receivers' full-rate impulse response convolved with the same

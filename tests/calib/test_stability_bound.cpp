@@ -20,7 +20,7 @@ void run_at_fraction(const Edges &e, double fraction, std::size_t steps)
 {
     auto op = make_plate(16, 13, 0.01, e);
     PlateEngine<double> eng(op, fraction * op->max_time_step());
-    eng.set_state(random_field(*op, 7), random_field(*op, 7));  // at rest: no rigid-body drift
+    eng.set_state(random_field(*op, 7), random_field(*op, 7)); // at rest: no rigid-body drift
     const double e0 = eng.energy();
     const double u0 = max_abs(eng.displacement());
     double umax = 0;
@@ -35,7 +35,7 @@ void run_at_fraction(const Edges &e, double fraction, std::size_t steps)
     EXPECT_LT(umax, 100 * u0) << describe(e);
 }
 
-}  // namespace
+} // namespace
 
 TEST(PlateStability, JustBelowTheBoundRunsWithoutGrowth)
 {
@@ -76,7 +76,6 @@ TEST(PlateStability, AboveTheBoundIsRefusedAndWouldBlowUp)
         EXPECT_FALSE(grown < 1e6 * u0) << describe(e) << ": grew only to " << grown;
     }
 }
-
 
 TEST(PlateStability, BoundLiesBetweenIndependentEstimates)
 {
@@ -149,7 +148,7 @@ TEST(StabilityExtremePlates, DimensionlessBoundIsTheSameFromMicrosecondsToSecond
             kmin = std::min(kmin, op->max_time_step());
             kmax = std::max(kmax, op->max_time_step());
         }
-    EXPECT_GT(kmax / kmin, 1e5);  // the range really spans many decades
+    EXPECT_GT(kmax / kmin, 1e5); // the range really spans many decades
     // Interior bound 64 kappa^2 / h^4 gives mu = 1/4; free edges do not raise it.
     EXPECT_GE(ref, 0.25 * (1 - 1e-9));
 }
@@ -178,7 +177,7 @@ TEST(StabilityLoss, LossThatBreaksTheExplicitBoundIsRefusedNamingTheLoss)
         EXPECT_NE(m.find("loss"), std::string::npos) << m;
         EXPECT_NE(m.find("without loss the bound would be"), std::string::npos) << m;
     }
-    opt.time_step_s = 0;  // the automatic step accounts for the loss and runs
+    opt.time_step_s = 0; // the automatic step accounts for the loss and runs
     opt.courant = 0.99;
     EXPECT_NO_THROW(Simulation(op, opt));
     EngineOptions unchecked;

@@ -44,7 +44,7 @@ Eigen::Vector3d rigid_part(const PlateOperator &op, const std::vector<double> &u
     return a.ldlt().solve(r);
 }
 
-}  // namespace
+} // namespace
 
 TEST(PlateStabilityRigidModes, SmallestFreePlateAtRestStaysAtRestOverAMillionFloatSteps)
 {
@@ -57,8 +57,8 @@ TEST(PlateStabilityRigidModes, SmallestFreePlateAtRestStaysAtRestOverAMillionFlo
     // a rigid displacement of 6e2 x the field here. What is left is the
     // random walk of the positions' rounding (measured 4e-3 x the field).
     using calib::physics::material_from_elastic;
-    auto op = plate_of(0.02, 0.02, 2, 2, 2e-3, material_from_elastic(2500, 62e9, 0.24, "glass"),
-                       Edges::all(EdgeKind::free));
+    auto op =
+        plate_of(0.02, 0.02, 2, 2, 2e-3, material_from_elastic(2500, 62e9, 0.24, "glass"), Edges::all(EdgeKind::free));
     PlateEngine<float> eng(op, 0.99 * op->max_time_step());
     eng.set_state(random_field(*op, 3), random_field(*op, 3));
     const double u0 = max_abs(eng.displacement());
@@ -71,7 +71,7 @@ TEST(PlateStabilityRigidModes, SmallestFreePlateAtRestStaysAtRestOverAMillionFlo
             const auto u = eng.displacement();
             umax = std::max(umax, max_abs(u));
             const Eigen::Vector3d dr = rigid_part(*op, u) - r0;
-            moved = std::max(moved, std::abs(dr[0]) + 2 * (std::abs(dr[1]) + std::abs(dr[2])));  // max over nodes
+            moved = std::max(moved, std::abs(dr[0]) + 2 * (std::abs(dr[1]) + std::abs(dr[2]))); // max over nodes
         }
     }
     EXPECT_LT(umax, 10 * u0);
@@ -117,7 +117,7 @@ TEST(PlateStabilityRigidModes, FreeGlassPlateStaysBoundedInFloatOverHalfAMillion
             umax = std::max(umax, max_abs(eng.displacement()));
         }
     }
-    EXPECT_LE(worst, 1e-3);  // round-off random walk (StabilityFloat: c eps sqrt(N))
+    EXPECT_LE(worst, 1e-3); // round-off random walk (StabilityFloat: c eps sqrt(N))
     EXPECT_LT(umax, 10 * u0);
 }
 
@@ -322,7 +322,7 @@ TEST(StabilityFloat, DecayedTailHoldsNoDenormalsWhenFlushed)
             unflushed_denormals += denormals_in(eng.displacement());
         }
     }
-    EXPECT_GT(unflushed_denormals, 0u);  // the run does cross the denormal range
+    EXPECT_GT(unflushed_denormals, 0u); // the run does cross the denormal range
     std::printf("[ figures  ] 40 x 30 float: %.3g us/step at the start, worst %.3g us/step in the decayed tail "
                 "(x %.2f); without flushing: %.3g -> %.3g us/step (x %.1f)\n",
                 ref * 1e6, worst * 1e6, worst / ref, ref_unflushed * 1e6, worst_unflushed * 1e6,

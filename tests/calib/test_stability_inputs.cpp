@@ -21,7 +21,7 @@ TEST(StabilityBoundaryPoints, ImpulseOnEdgeAndCornerNodesInjectsTheHandComputedE
     // energy after the first step is exactly 1/(2M); on a supported node it is
     // 0. Then 0.99 x the bound keeps it.
     const Edges e{EdgeKind::free, EdgeKind::clamped, EdgeKind::free, EdgeKind::simply_supported};
-    auto op = make_plate(20, 15, 0.01, e);  // left and bottom free: corner (0, 0) is a free corner
+    auto op = make_plate(20, 15, 0.01, e); // left and bottom free: corner (0, 0) is a free corner
     const double lx = 0.2, ly = 0.15;
     const double m1 = test_material().density_kg_m3 * 0.002 * 0.01 * 0.01;
     struct Case {
@@ -43,7 +43,7 @@ TEST(StabilityBoundaryPoints, ImpulseOnEdgeAndCornerNodesInjectsTheHandComputedE
         opt.time_step_s = 0.99 * op->max_time_step();
         Simulation sim(op, opt);
         sim.set_source_impulse(sim.add_source(c.x, c.y));
-        sim.add_receiver(c.x, c.y);  // the same node: reads the boundary directly
+        sim.add_receiver(c.x, c.y); // the same node: reads the boundary directly
         sim.add_receiver(0.13, 0.09);
         sim.run(1);
         const double expect = c.w > 0 ? 1 / (2 * m1 * c.w) : 0.0;
@@ -67,7 +67,7 @@ TEST(StabilityBoundaryPoints, CornerAndEdgeSourcesAndReceiversAreReciprocal)
     // reciprocity test covers interior points only), lossy, float and double.
     const Edges e{EdgeKind::free, EdgeKind::clamped, EdgeKind::free, EdgeKind::simply_supported};
     auto op = make_plate(24, 18, 0.01, e, 0.3, Loss{3.0, 2e-4});
-    const double a[2] = {0.0, 0.0}, b[2] = {0.137, 0.0};  // corner node; off-node on the bottom edge
+    const double a[2] = {0.0, 0.0}, b[2] = {0.137, 0.0}; // corner node; off-node on the bottom edge
     for (Precision p : {Precision::f64, Precision::f32}) {
         auto trace = [&](const double *src, const double *rec) {
             SimulationOptions opt;
@@ -121,7 +121,7 @@ double impulse_energy_ratio(std::shared_ptr<const PlateOperator> op, std::size_t
 {
     PlateEngine<T> eng(op, 0.99 * op->max_time_step());
     const std::size_t s = eng.add_source(0.07, 0.05);
-    eng.add_receiver(0.0, 0.12);  // free corner
+    eng.add_receiver(0.0, 0.12); // free corner
     eng.set_source_force(s, 1 / eng.time_step());
     ScopedFlushDenormals ftz;
     eng.step();
@@ -140,7 +140,7 @@ double impulse_energy_ratio(std::shared_ptr<const PlateOperator> op, std::size_t
     return prev / e0;
 }
 
-}  // namespace
+} // namespace
 
 TEST(StabilityLoss, VeryHighLossDecaysMonotonicallyAndStaysFinite)
 {
@@ -161,7 +161,7 @@ TEST(StabilityLoss, VeryHighLossDecaysMonotonicallyAndStaysFinite)
         if (loss.sigma1 > 0) {
             EXPECT_NEAR(op->max_time_step() / (k0 / 4), 1.0, 1e-9);
         }
-        const std::size_t steps = 4000;  // not scaled: the overdamped fall needs them (0.5 s under ASan)
+        const std::size_t steps = 4000; // not scaled: the overdamped fall needs them (0.5 s under ASan)
         const double r64 = impulse_energy_ratio<double>(op, steps, 1e-12);
         const double r32 = impulse_energy_ratio<float>(op, steps, 1e-5);
         EXPECT_TRUE(r64 >= 0 && r64 < 1e-2) << "sigma0 " << loss.sigma0 << " sigma1 " << loss.sigma1 << ": " << r64;
@@ -183,12 +183,9 @@ std::string run_expecting_failure(Simulation &sim, std::size_t steps)
     return {};
 }
 
-bool has(const std::string &s, const std::string &part)
-{
-    return s.find(part) != std::string::npos;
-}
+bool has(const std::string &s, const std::string &part) { return s.find(part) != std::string::npos; }
 
-}  // namespace
+} // namespace
 
 TEST(StabilityNonFinite, NanOrInfSourceForceIsRefusedAtItsStepBeforeReachingTheField)
 {
@@ -196,14 +193,14 @@ TEST(StabilityNonFinite, NanOrInfSourceForceIsRefusedAtItsStepBeforeReachingTheF
     for (Precision p : {Precision::f32, Precision::f64})
         for (double bad : {std::nan(""), std::numeric_limits<double>::infinity(), -1e300}) {
             if (p == Precision::f64 && bad == -1e300)
-                continue;  // finite in double: not an error
+                continue; // finite in double: not an error
             SimulationOptions opt;
             opt.precision = p;
             Simulation sim(op, opt);
             sim.add_source(0.05, 0.05);
             const std::size_t s = sim.add_source(0.1, 0.07);
             sim.add_receiver(0.15, 0.1);
-            sim.run(7);  // the signal starts at step 7
+            sim.run(7); // the signal starts at step 7
             std::vector<double> f(200, 0.5);
             f[100] = bad;
             sim.set_source_signal(s, f);
@@ -255,7 +252,7 @@ FirstBad reference_divergence(std::shared_ptr<const PlateOperator> op, double k,
     return {};
 }
 
-}  // namespace
+} // namespace
 
 TEST(StabilityNonFinite, DivergenceIsReportedWithStepTimeAndNode)
 {
@@ -292,7 +289,7 @@ TEST(StabilityNonFinite, DivergenceIsReportedWithStepTimeAndNode)
             // kept; found by the receiver, it is not.
             EXPECT_TRUE(reported == ref.step + 1 || reported == ref.step) << reported;
         } else if (interval == 16) {
-            const std::size_t at = ((ref.step + 1 + 15) / 16) * 16 - 1;  // next scan after ref.step
+            const std::size_t at = ((ref.step + 1 + 15) / 16) * 16 - 1; // next scan after ref.step
             EXPECT_TRUE(has(m, "at step " + std::to_string(at) + " ") || has(m, "receiver 0")) << m;
             EXPECT_TRUE(has(m, "finite after step")) << m;
         } else {

@@ -44,8 +44,7 @@ CalibrationInput input_of(const std::string &toml, const std::string &name)
 
 std::string temp_path(const std::string &leaf)
 {
-    return (std::filesystem::temp_directory_path() /
-            ("haptic-stability-" + std::to_string(::getpid()) + "-" + leaf))
+    return (std::filesystem::temp_directory_path() / ("haptic-stability-" + std::to_string(::getpid()) + "-" + leaf))
         .string();
 }
 
@@ -62,12 +61,9 @@ std::string calibrate_to(const CalibrationInput &in, const std::string &table)
     return {};
 }
 
-bool has(const std::string &s, const std::string &part)
-{
-    return s.find(part) != std::string::npos;
-}
+bool has(const std::string &s, const std::string &part) { return s.find(part) != std::string::npos; }
 
-}  // namespace
+} // namespace
 
 TEST(StabilityPipeline, ContrastModelOnAllZeroResponsesIsFiniteNotNaN)
 {
@@ -77,7 +73,8 @@ TEST(StabilityPipeline, ContrastModelOnAllZeroResponsesIsFiniteNotNaN)
     std::vector<Point> sites;
     for (int i = 0; i < 12; ++i)
         sites.push_back({0.01 * i, 0.0});
-    std::vector<std::vector<std::vector<float>>> zero(3, std::vector<std::vector<float>>(12, std::vector<float>(64, 0.f)));
+    std::vector<std::vector<std::vector<float>>> zero(3,
+                                                      std::vector<std::vector<float>>(12, std::vector<float>(64, 0.f)));
     ContrastModel m(zero, 2, 20);
     const ContrastModel::Score s = m.score({0, 3, 7});
     ASSERT_EQ(s.per_focus_db.size(), 2u);
@@ -117,7 +114,7 @@ std::vector<std::vector<double>> tiny_recordings(double scale)
     return rec;
 }
 
-}  // namespace
+} // namespace
 
 TEST(StabilityPipeline, TinyButNonZeroRecordingsNormalizeToFiniteSignals)
 {
@@ -172,7 +169,7 @@ TEST(StabilityPipeline, FocusTheExcitersCannotReachFailsWithTheReasonAndNoTable)
     // Exciters on clamped edge nodes: every recording is exactly zero. The
     // library call fails naming the focus and the reason; no table appears.
     const CalibrationInput in = input_of(read_text(unreachable_scene), unreachable_scene);
-    ASSERT_NO_THROW(check_feasible(in));  // feasible on paper: the positions are in the band
+    ASSERT_NO_THROW(check_feasible(in)); // feasible on paper: the positions are in the band
     const std::string table = temp_path("unreachable.htab");
     std::filesystem::remove(table);
     const std::string m = calibrate_to(in, table);
@@ -195,7 +192,7 @@ TEST(StabilityPipeline, CalibgenExitsNonZeroAndWritesNoTable)
     EXPECT_FALSE(std::filesystem::exists(table + ".tmp"));
     const std::string msg = read_text(err);
     EXPECT_TRUE(has(msg, "all recordings are zero")) << msg;
-    EXPECT_EQ(std::count(msg.begin(), msg.end(), '\n'), 1) << msg;  // one line
+    EXPECT_EQ(std::count(msg.begin(), msg.end(), '\n'), 1) << msg; // one line
     std::filesystem::remove(err);
 }
 

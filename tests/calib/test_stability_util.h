@@ -22,7 +22,7 @@ inline const Edges stability_cases[] = {
     Edges::all(EdgeKind::clamped),
     Edges::all(EdgeKind::simply_supported),
     Edges::all(EdgeKind::free),
-    {EdgeKind::free, EdgeKind::clamped, EdgeKind::free, EdgeKind::simply_supported},  // two free edges meet
+    {EdgeKind::free, EdgeKind::clamped, EdgeKind::free, EdgeKind::simply_supported}, // two free edges meet
 };
 
 inline double max_abs(const std::vector<double> &u)
@@ -108,8 +108,8 @@ inline std::vector<Extreme> extreme_plates()
 {
     using calib::physics::material_from_elastic;
     const auto glass = material_from_elastic(2500, 62e9, 0.24, "glass");
-    const auto soft = material_from_elastic(1100, 1e6, 0.45, "soft elastomer");     // E ~ 1 MPa
-    const auto stiff = material_from_elastic(3510, 1.05e12, 0.1, "diamond-like");  // E ~ 1 TPa
+    const auto soft = material_from_elastic(1100, 1e6, 0.45, "soft elastomer");   // E ~ 1 MPa
+    const auto stiff = material_from_elastic(3510, 1.05e12, 0.1, "diamond-like"); // E ~ 1 TPa
     const Edges two_free{EdgeKind::free, EdgeKind::clamped, EdgeKind::free, EdgeKind::simply_supported};
     const Edges free = Edges::all(EdgeKind::free);
     return {
@@ -117,7 +117,14 @@ inline std::vector<Extreme> extreme_plates()
         {"thick 10 mm glass", 0.4, 0.3, 16, 12, 1e-2, glass, two_free},
         {"soft E = 1 MPa", 0.2, 0.15, 16, 12, 2e-3, soft, two_free},
         {"stiff E = 1 TPa", 0.2, 0.15, 16, 12, 2e-3, stiff, two_free},
-        {"aspect 20:1", 0.4, 0.02, 80, 4, 2e-3, glass, {EdgeKind::free, EdgeKind::free, EdgeKind::clamped, EdgeKind::free}},
+        {"aspect 20:1",
+         0.4,
+         0.02,
+         80,
+         4,
+         2e-3,
+         glass,
+         {EdgeKind::free, EdgeKind::free, EdgeKind::clamped, EdgeKind::free}},
         {"aspect 1:20 free", 0.02, 0.4, 4, 80, 2e-3, glass, free},
         {"2 x 2 cells free", 0.02, 0.02, 2, 2, 2e-3, glass, free},
         {"3 x 2 cells two free", 0.03, 0.02, 3, 2, 2e-3, glass, two_free},
@@ -141,4 +148,4 @@ inline std::shared_ptr<PlateOperator> free_glass_plate()
     return std::make_shared<PlateOperator>(p, make_grid(0.1, 0.1, wavelength / 6));
 }
 
-}  // namespace plate_test
+} // namespace plate_test

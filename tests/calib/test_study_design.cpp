@@ -20,10 +20,7 @@ namespace {
 // The sweep "lives" next to the shipped scenes so that base = "..." resolves.
 const std::string sweep_file = std::string(HAPTIC_SOURCE_DIR) + "/scenes/unit-test-sweep.toml";
 
-Sweep sweep_of(const std::string &body)
-{
-    return parse_sweep("base = \"test-study-small.toml\"\n" + body, sweep_file);
-}
+Sweep sweep_of(const std::string &body) { return parse_sweep("base = \"test-study-small.toml\"\n" + body, sweep_file); }
 
 // The message of the SweepError a sweep body raises ("" when none).
 std::string refusal(const std::string &body)
@@ -36,13 +33,13 @@ std::string refusal(const std::string &body)
     return "";
 }
 
-}  // namespace
+} // namespace
 
 TEST(StudySweep, CartesianProductInFileOrderLastAxisFastest)
 {
     const Sweep s = sweep_of("[axes]\nexciter_count = [4, 6]\nedges = [\"clamped\", \"free\", \"simply_supported\"]\n");
     ASSERT_EQ(s.axes.size(), 2u);
-    EXPECT_EQ(s.axes[0].name, "exciter_count");  // file order, not toml++'s key order
+    EXPECT_EQ(s.axes[0].name, "exciter_count"); // file order, not toml++'s key order
     const auto cases = enumerate_cases(s);
     ASSERT_EQ(cases.size(), 6u);
     const char *edges[] = {"clamped", "free", "simply_supported"};
@@ -53,7 +50,7 @@ TEST(StudySweep, CartesianProductInFileOrderLastAxisFastest)
         const scene::Scene sc = scene::parse_scene(cases[i].scene_text, "case.toml");
         EXPECT_EQ(sc.exciters->count, i < 3 ? 4u : 6u);
         EXPECT_EQ(sc.plate.edges.left, sc.plate.edges.top);
-        EXPECT_EQ(sc.pulse->centre_hz, 1200);  // untouched base keys stay
+        EXPECT_EQ(sc.pulse->centre_hz, 1200); // untouched base keys stay
     }
 }
 
@@ -69,10 +66,10 @@ TEST(StudySweep, CaseIdsAreStableAndDependOnTheCaseOnly)
         ids.insert(a[i].id);
         ids_swapped.insert(swapped[i].id);
     }
-    EXPECT_EQ(ids.size(), 4u);     // distinct cases, distinct ids
-    EXPECT_EQ(ids, ids_swapped);   // the same case in another order keeps its id (and its result file)
+    EXPECT_EQ(ids.size(), 4u);   // distinct cases, distinct ids
+    EXPECT_EQ(ids, ids_swapped); // the same case in another order keeps its id (and its result file)
     // Case (4, 1) of the first order is case (1, 4) of the second: index 0 both times.
-    EXPECT_EQ(a[1].id, swapped[2].id);  // exciters 4, seed 2
+    EXPECT_EQ(a[1].id, swapped[2].id); // exciters 4, seed 2
 }
 
 TEST(StudySweep, RangesIncludeTheirEnd)
@@ -83,7 +80,7 @@ TEST(StudySweep, RangesIncludeTheirEnd)
     EXPECT_DOUBLE_EQ(*s.axes[0].values.get(2)->value<double>(), 0.004);
     ASSERT_EQ(s.axes[1].values.size(), 3u);
     EXPECT_EQ(*s.axes[1].values.get(2)->value<int64_t>(), 12);
-    EXPECT_EQ(s.axes[2].values.size(), 3u);  // integer axes step by 1 unless told
+    EXPECT_EQ(s.axes[2].values.size(), 3u); // integer axes step by 1 unless told
     EXPECT_EQ(s.case_count(), 27u);
 }
 
@@ -94,7 +91,7 @@ TEST(StudySweep, SetAppliesToEveryCaseAndAxesOverrideIt)
     for (const Case &c : enumerate_cases(s)) {
         const scene::Scene sc = scene::parse_scene(c.scene_text, "case.toml");
         EXPECT_EQ(sc.plate.loss->t60_2_s, 0.05);
-        EXPECT_EQ(sc.plate.loss->f2_hz, 1200);  // the merge keeps the base's other loss key
+        EXPECT_EQ(sc.plate.loss->f2_hz, 1200); // the merge keeps the base's other loss key
         EXPECT_EQ(sc.exciters->seed, 9u);
         EXPECT_NE(sc.exciters->count, 5u);
     }
@@ -147,7 +144,7 @@ TEST(StudyCase, RecordRoundTripsExactly)
     r.material = "acrylic";
     r.edges = "clamped/free/clamped/free";
     r.criterion = "contrast";
-    r.thickness_m = 0.1 + 0.2;  // not a short decimal
+    r.thickness_m = 0.1 + 0.2; // not a short decimal
     r.pulse_centre_hz = 300;
     r.pulse_cycles = 2.5;
     r.exciters = 8;
@@ -169,7 +166,7 @@ TEST(StudyCase, RecordRoundTripsExactly)
     EXPECT_EQ(std::memcmp(&d.thickness_m, &r.thickness_m, sizeof(double)), 0);
     EXPECT_EQ(std::memcmp(&d.worst_contrast_db, &r.worst_contrast_db, sizeof(double)), 0);
     EXPECT_EQ(d.seed, r.seed);
-    EXPECT_EQ(d.note, "a note, with a comma and a newline");  // one line in the record
+    EXPECT_EQ(d.note, "a note, with a comma and a newline"); // one line in the record
     // A record cut short (a writer killed mid-way would leave no file at all,
     // but a foreign or damaged file must not pass for a result).
     const std::string whole = encode_case(r);
@@ -209,7 +206,7 @@ TEST(StudyReport, CsvHasNoCostColumnsAndSummaryPicksByConstraint)
         r.peak_rss_mb += 100;
         r.rank += 1;
     }
-    EXPECT_EQ(design_csv(slow), csv);  // cost and rank stay out of the compared CSV
+    EXPECT_EQ(design_csv(slow), csv); // cost and rank stay out of the compared CSV
     EXPECT_NE(timing_csv(slow), timing_csv(cases));
     EXPECT_NE(csv.find("4,id4,acrylic,0.002,clamped,12,contrast,0,0,0,refused,,,,,,,,exciters.count: no room\n"),
               std::string::npos)

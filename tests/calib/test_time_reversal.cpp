@@ -42,7 +42,7 @@ TEST(Pulse, ShapesParseAndRickerPeaksAtItsCentre)
     EXPECT_NEAR(pulse_value(r, pulse_duration_s(r) / 2), 1.0, 1e-12);
     EXPECT_LT(std::abs(pulse_value(r, 1e-9)), 2e-4);
     PulseSpec g{PulseShape::gaussian_burst, 200.0, 3, 1e-6};
-    EXPECT_NEAR(std::abs(pulse_value(g, 1e-12)), 0.0, 0.011);  // -40 dB envelope at the ends
+    EXPECT_NEAR(std::abs(pulse_value(g, 1e-12)), 0.0, 0.011); // -40 dB envelope at the ends
 }
 
 TEST(Resample, SineKeepsItsValuesAtTheNewRate)
@@ -54,19 +54,19 @@ TEST(Resample, SineKeepsItsValuesAtTheNewRate)
     std::vector<double> y = resample(x, fin, fout);
     ASSERT_NEAR(static_cast<double>(y.size()), x.size() * fout / fin, 1.0);
     double err = 0;
-    for (size_t i = y.size() / 4; i < 3 * y.size() / 4; i++)  // away from the ends' filter transients
+    for (size_t i = y.size() / 4; i < 3 * y.size() / 4; i++) // away from the ends' filter transients
         err = std::max(err, std::abs(y[i] - std::sin(2 * pi * f * static_cast<double>(i) / fout)));
     EXPECT_LT(err, 1e-4);
 }
 
 namespace {
-struct FreeSpace {  // non-dispersive 2-D propagation: delay r/c, amplitude 1/sqrt(r)
+struct FreeSpace { // non-dispersive 2-D propagation: delay r/c, amplitude 1/sqrt(r)
     double c = 150.0;
     double delay(double r) const { return r / c; }
     static double amp(double r) { return 1.0 / std::sqrt(r); }
 };
 double dist(double ax, double ay, double bx, double by) { return std::hypot(ax - bx, ay - by); }
-}  // namespace
+} // namespace
 
 TEST(TimeReversal, RefocusesAtTheFocusAtThePredictedInstant)
 {
@@ -75,7 +75,7 @@ TEST(TimeReversal, RefocusesAtTheFocusAtThePredictedInstant)
     const double T = pulse_duration_s(pulse);
     const double ex[8][2] = {{0.02, 0.05}, {0.31, 0.02}, {0.66, 0.04}, {0.68, 0.37},
                              {0.65, 0.66}, {0.35, 0.69}, {0.03, 0.62}, {0.05, 0.28}};
-    const double fx = 0.40, fy = 0.42, ox = 0.25, oy = 0.30;  // focus, and another point
+    const double fx = 0.40, fy = 0.42, ox = 0.25, oy = 0.30; // focus, and another point
     FreeSpace g;
     const auto n = static_cast<size_t>(window * sim_rate);
     std::vector<std::vector<double>> rec(8, std::vector<double>(n));
@@ -85,7 +85,7 @@ TEST(TimeReversal, RefocusesAtTheFocusAtThePredictedInstant)
             rec[i][k] = g.amp(r) * pulse_value(pulse, static_cast<double>(k) / sim_rate - g.delay(r));
     }
     TimeReversalOptions o;
-    o.truncate_fraction = 0.5;  // 30 ms: all direct arrivals (< 4 ms + T) are kept
+    o.truncate_fraction = 0.5; // 30 ms: all direct arrivals (< 4 ms + T) are kept
     o.taper_s = 0.0005;
     DriveSignals d = make_drive_signals(rec, sim_rate, T, o);
     ASSERT_EQ(d.channels, 8u);
@@ -133,14 +133,14 @@ TEST(TimeReversal, TruncatesReversesNormalizesAndFades)
     std::vector<std::vector<double>> rec(2, std::vector<double>(1000));
     for (size_t k = 0; k < 1000; k++) {
         rec[0][k] = std::sin(2 * pi * 500 * static_cast<double>(k) / rate) * 1e-7;
-        rec[1][k] = k == 100 ? 3e-7 : 0.0;  // an impulse at sample 100
+        rec[1][k] = k == 100 ? 3e-7 : 0.0; // an impulse at sample 100
     }
     TimeReversalOptions o;
     o.truncate_fraction = 0.3;
-    o.taper_s = 0.0005;  // 24 samples
+    o.taper_s = 0.0005; // 24 samples
     o.dither = false;
     DriveSignals d = make_drive_signals(rec, rate, 0.001, o);
-    ASSERT_EQ(d.frames, 300u);  // same rate: no resampling
+    ASSERT_EQ(d.frames, 300u); // same rate: no resampling
     // Channel 1: impulse at 100 of the kept 300 -> index 299 - 100 after reversal.
     EXPECT_EQ(d.samples[199 * 2 + 1], 32767);
     EXPECT_NEAR(d.gain, 32767 / 3e-7, 1e-3 * 32767 / 3e-7);
@@ -170,7 +170,7 @@ TEST(TimeReversal, TpdfDitherIsBoundedUnbiasedAndReproducible)
     mean /= static_cast<double>(a.frames);
     var /= static_cast<double>(a.frames);
     EXPECT_NEAR(mean, 0.0, 0.01);
-    EXPECT_NEAR(var, 1.0 / 6 + 1.0 / 12, 0.02);  // TPDF (1/6) + rounding (1/12) LSB^2
+    EXPECT_NEAR(var, 1.0 / 6 + 1.0 / 12, 0.02); // TPDF (1/6) + rounding (1/12) LSB^2
     DriveSignals b = make_drive_signals(rec, rate, 0.0, o);
     EXPECT_EQ(a.samples, b.samples);
     o.dither_seed = 2;

@@ -52,7 +52,8 @@ std::vector<std::vector<double>> burst_drive(std::size_t channels, double k, dou
 }
 
 // Forward simulation of a drive, recording the foci.
-std::vector<std::vector<double>> forward(const pipeline::CalibrationInput &in, const std::vector<pipeline::Point> &exciters,
+std::vector<std::vector<double>> forward(const pipeline::CalibrationInput &in,
+                                         const std::vector<pipeline::Point> &exciters,
                                          const std::vector<std::vector<double>> &force, std::size_t steps)
 {
     engine::Simulation sim(in.plate, pipeline::single_core_options(in));
@@ -64,7 +65,7 @@ std::vector<std::vector<double>> forward(const pipeline::CalibrationInput &in, c
     return sim.traces();
 }
 
-}  // namespace
+} // namespace
 
 TEST(Transfer, ConvolutionEqualsForwardSimulationAtTheSimulationRate)
 {
@@ -72,14 +73,14 @@ TEST(Transfer, ConvolutionEqualsForwardSimulationAtTheSimulationRate)
     const std::vector<pipeline::Point> ex = in.exciters.positions;
     engine::Simulation probe(in.plate, pipeline::single_core_options(in));
     const double k = probe.time_step_s();
-    pipeline::TransferOptions o;  // decimation 1, the scheme's own impulse response
+    pipeline::TransferOptions o; // decimation 1, the scheme's own impulse response
     o.samples = probe.steps_for(0.02);
     const pipeline::TransferMatrix H = pipeline::simulate_transfer(in, ex, foci_of(in), o);
     ASSERT_EQ(H.rate_hz, 1.0 / k);
 
     const std::vector<std::vector<double>> a = burst_drive(ex.size(), k, 0.0);   // focus A's drive
-    const std::vector<std::vector<double>> b = burst_drive(ex.size(), k, 0.003);  // focus B's drive
-    std::vector<std::vector<double>> sum = a;  // the superposition
+    const std::vector<std::vector<double>> b = burst_drive(ex.size(), k, 0.003); // focus B's drive
+    std::vector<std::vector<double>> sum = a;                                    // the superposition
     for (std::size_t c = 0; c < sum.size(); c++) {
         sum[c].resize(std::max(a[c].size(), b[c].size()), 0.0);
         for (std::size_t i = 0; i < b[c].size(); i++)
@@ -158,7 +159,7 @@ TEST(Transfer, DecimatedBandLimitedMatrixMatchesForwardSimulationWithinTolerance
 TEST(Transfer, ReciprocityExciterToPointEqualsPointToExciter)
 {
     const pipeline::CalibrationInput in = scene::calibration_input(plate_scene, "transfer.toml");
-    const pipeline::Point exciter = in.exciters.positions[0], point{0.1737, 0.1213};  // neither on a node
+    const pipeline::Point exciter = in.exciters.positions[0], point{0.1737, 0.1213}; // neither on a node
     engine::Simulation probe(in.plate, pipeline::single_core_options(in));
     const pipeline::TransferOptions o = pipeline::transfer_options(in, probe.time_step_s());
     const pipeline::TransferMatrix a = pipeline::simulate_transfer(in, {exciter}, {point}, o);
@@ -173,8 +174,8 @@ TEST(Transfer, ReciprocityExciterToPointEqualsPointToExciter)
         moved = std::max(moved, double(std::abs(ha[s] - hc[s])));
     }
     ASSERT_GT(peak, 0);
-    EXPECT_LT(diff, 1e-6 * peak);   // float storage of a double simulation
-    EXPECT_GT(moved, 1e-2 * peak);  // 4 mm away is a different response
+    EXPECT_LT(diff, 1e-6 * peak);  // float storage of a double simulation
+    EXPECT_GT(moved, 1e-2 * peak); // 4 mm away is a different response
 }
 
 TEST(Transfer, RefinedPeakRecoversASampledSinePeak)

@@ -54,7 +54,7 @@ FocusMetrics passing(double whole_area_db = 6, double others_db = 8)
     return m;
 }
 
-}  // namespace
+} // namespace
 
 TEST(VerdictRule, PassesNeedsEachOfItsThreeTerms)
 {
@@ -72,13 +72,13 @@ TEST(VerdictRule, PassesNeedsEachOfItsThreeTerms)
 
     FocusMetrics other = ok;
     other.others_below_threshold = false;
-    other.max_other_foci_m = 10e-6;  // +6.02 dB over 5 um
+    other.max_other_foci_m = 10e-6; // +6.02 dB over 5 um
     EXPECT_FALSE(other.passes());
     EXPECT_EQ(other.failure(thr), "another focus reaches 10.00 um, +6.0 dB over the threshold");
 
     FocusMetrics ghost = ok;
     ghost.whole_area_below_threshold = false;
-    ghost.max_whole_area_m = 6e-6;  // 20 log10(1.2) = +1.58 dB
+    ghost.max_whole_area_m = 6e-6; // 20 log10(1.2) = +1.58 dB
     EXPECT_FALSE(ghost.passes());
     EXPECT_EQ(ghost.failure(thr), "ghost 6.00 um at (12.5, 37.5) mm, +1.6 dB over the threshold");
 
@@ -135,8 +135,9 @@ TEST(VerdictRule, SummaryCountsThePassingFociAndNamesTheWorst)
     // Each term alone fails the one focus that lacks it.
     for (int term = 0; term < 3; term++) {
         std::vector<FocusMetrics> v(3, passing());
-        bool &t = term == 0 ? v[1].crosses_threshold : term == 1 ? v[1].others_below_threshold
-                                                                  : v[1].whole_area_below_threshold;
+        bool &t = term == 0   ? v[1].crosses_threshold
+                  : term == 1 ? v[1].others_below_threshold
+                              : v[1].whole_area_below_threshold;
         t = false;
         EXPECT_EQ(pipeline::summarize_verdict(v).passing, 2u) << term;
         EXPECT_FALSE(pipeline::summarize_verdict(v).all_pass()) << term;
@@ -236,7 +237,7 @@ HandBuilt hand_built()
 // One full-scale sample on channel f, for each focus f (frames [n][c]).
 std::vector<std::vector<int16_t>> impulses() { return {{32767, 0}, {0, 32767}}; }
 
-}  // namespace
+} // namespace
 
 TEST(VerdictHandBuilt, TheGhostAfterTheFocalInstantFailsItsFocus)
 {
@@ -247,7 +248,7 @@ TEST(VerdictHandBuilt, TheGhostAfterTheFocalInstantFailsItsFocus)
     const FocusMetrics &g = v.foci[1];
     EXPECT_EQ(g.id, 9u);
     EXPECT_NEAR(g.peak_m, 10 * um, rel * 10 * um);
-    EXPECT_NEAR(g.lead_time_s, 11 / rate_hz, 1e-3 / rate_hz);  // the state after step 11
+    EXPECT_NEAR(g.lead_time_s, 11 / rate_hz, 1e-3 / rate_hz); // the state after step 11
     EXPECT_NEAR(g.max_other_foci_m, 2 * um, rel * 2 * um);
     EXPECT_NEAR(g.other_foci_contrast_db, db(10, 2), 1e-3);
     EXPECT_TRUE(g.crosses_threshold);
@@ -299,7 +300,7 @@ TEST(VerdictHandBuilt, TheGhostAfterTheFocalInstantFailsItsFocus)
     ASSERT_GT(v.frames.size(), 40u);
     EXPECT_NEAR(v.frames[40][b.lattice(4, 6)], 7 * um, rel * 7 * um);
     EXPECT_NEAR(v.frames[10][b.lattice(2, 4)], 10 * um, rel * 10 * um);
-    EXPECT_NEAR(v.frames[12][b.lattice(6, 4)], 0.0, 1e-3 * um);  // focus 0's peak is not in these frames
+    EXPECT_NEAR(v.frames[12][b.lattice(6, 4)], 0.0, 1e-3 * um); // focus 0's peak is not in these frames
     // The all-times maxima the report maps: the ghost at its point.
     EXPECT_NEAR(v.max_abs[1][b.lattice(4, 6)], 7 * um, rel * 7 * um);
 }
@@ -387,7 +388,7 @@ struct Burst {
     }
 };
 
-}  // namespace
+} // namespace
 
 TEST(VerdictPeak, RefinedPeakFindsABandLimitedPeakBetweenTheGridPoints)
 {
@@ -408,7 +409,7 @@ TEST(VerdictPeak, RefinedPeakFindsABandLimitedPeakBetweenTheGridPoints)
             worst = std::max(worst, std::abs(p.value - v_true) / v_true);
             EXPECT_NEAR(p.value, v_true, 1e-5 * v_true);
             EXPECT_NEAR(p.index, t_true, 1e-3);
-            EXPECT_GT(v_true - pipeline::sample_peak(x.data(), x.size()), 5e-5);  // the samples miss it
+            EXPECT_GT(v_true - pipeline::sample_peak(x.data(), x.size()), 5e-5); // the samples miss it
         }
     RecordProperty("worst_relative_error", std::to_string(worst));
 }
@@ -424,7 +425,7 @@ const verdict_ghost::Case &ghost_case()
     return g;
 }
 
-}  // namespace
+} // namespace
 
 TEST(VerdictGhost, FailsATableWhoseOnlyDefectIsAGhostBetweenTheFoci)
 {
@@ -459,7 +460,7 @@ TEST(VerdictGhost, FailsATableWhoseOnlyDefectIsAGhostBetweenTheFoci)
     EXPECT_NEAR(m.peak_m, clean.peak_m, 1e-6 * clean.peak_m);
     EXPECT_NEAR(m.lead_time_s, clean.lead_time_s, 1e-9);
     EXPECT_NEAR(m.max_elsewhere_m, clean.max_elsewhere_m, 1e-6 * clean.max_elsewhere_m);
-    EXPECT_LT(m.max_elsewhere_m, thr);  // at the focal instant nothing reaches the threshold
+    EXPECT_LT(m.max_elsewhere_m, thr); // at the focal instant nothing reaches the threshold
     EXPECT_TRUE(m.crosses_threshold);
     EXPECT_TRUE(m.others_below_threshold) << m.max_other_foci_m;
     // At all times the ghost does, where we put it.

@@ -77,7 +77,7 @@ struct Json {
         return j;
     }
 
-private:
+  private:
     static void skip(const std::string &t, std::size_t &at)
     {
         while (at < t.size() && std::isspace(static_cast<unsigned char>(t[at])))
@@ -98,7 +98,7 @@ private:
             if (t[at] == '\\') {
                 at++;
                 const char e = t[at];
-                out += e == 'n' ? '\n' : e == 't' ? '\t' : e;  // \uXXXX does not occur in these files
+                out += e == 'n' ? '\n' : e == 't' ? '\t' : e; // \uXXXX does not occur in these files
             } else {
                 out += t[at];
             }
@@ -167,7 +167,7 @@ private:
 };
 
 class VerdictCli : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override
     {
         const auto *info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -204,7 +204,7 @@ const Json *focus_json(const Json &metrics, uint32_t id)
     return nullptr;
 }
 
-}  // namespace
+} // namespace
 
 TEST_F(VerdictCli, CalibrateExits3OnAGhostAfterWritingTableAndReport)
 {
@@ -283,7 +283,7 @@ TEST_F(VerdictCli, CalibrateExits0WhenEveryFocusPasses)
     for (const Json &f : m["foci"].items) {
         EXPECT_TRUE(f["passes"].b);
         EXPECT_FALSE(f.has("failure"));
-        EXPECT_NEAR(f["peak_m"].n, 5.7e-6, 0.05e-6);  // the level is set for the target amplitude
+        EXPECT_NEAR(f["peak_m"].n, 5.7e-6, 0.05e-6); // the level is set for the target amplitude
         EXPECT_LT(f["max_whole_area_m"].n, 5e-6);
         // Passing at the stored level: the safe range holds 0 dB.
         const Json &range = f["safe_range_db"];
@@ -299,7 +299,7 @@ TEST_F(VerdictCli, VerifyExits3OnATableWithAHandMadeGhostAnd0Without)
     const verdict_ghost::Case g = verdict_ghost::build(verdict_ghost::scene_text());
     const double thr = g.in.calibration.threshold_m;
     const pipeline::FocusMetrics &lib = g.result.verification.foci[g.ghost_focus];
-    ASSERT_FALSE(lib.passes());  // the library's verdict (test_verdict.cpp checks it in full)
+    ASSERT_FALSE(lib.passes()); // the library's verdict (test_verdict.cpp checks it in full)
     const fs::path scene = dir_ / "regular.toml";
     write_text(scene, verdict_ghost::scene_text());
 

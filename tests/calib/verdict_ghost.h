@@ -72,7 +72,8 @@ grid = [2, 1]
 shape = "hann_burst"
 centre_hz = 1200
 cycles = 2
-amplitude_m = )" + amplitude_m + R"(
+amplitude_m = )" +
+           amplitude_m + R"(
 
 [calibration]
 window_s = 0.04
@@ -85,16 +86,16 @@ verify_tail_s = 0.02
 
 struct Case {
     pipeline::CalibrationInput in;
-    pipeline::CalibrationResult result;  // its signals: the ghosted table; its verification: of them
+    pipeline::CalibrationResult result; // its signals: the ghosted table; its verification: of them
     pipeline::TransferMatrix H;
-    std::vector<std::vector<int16_t>> clean, ghosted;  // [focus][frame * channels + c]
+    std::vector<std::vector<int16_t>> clean, ghosted; // [focus][frame * channels + c]
     pipeline::Verification clean_v;
-    std::size_t ghost_focus = 0;   // the focus whose drive carries the ghost
-    std::size_t ghost_point = 0;   // lattice index of the ghost
+    std::size_t ghost_focus = 0; // the focus whose drive carries the ghost
+    std::size_t ghost_point = 0; // lattice index of the ghost
     pipeline::Point ghost_at;
-    double ghost_peak_m = 0;       // the ghost's peak at its lattice point (the ghost drive alone)
-    double ghost_time_s = 0;       // when, from the start of playback
-    double scale = 0;              // the clean drives are the calibrated ones x scale
+    double ghost_peak_m = 0; // the ghost's peak at its lattice point (the ghost drive alone)
+    double ghost_time_s = 0; // when, from the start of playback
+    double scale = 0;        // the clean drives are the calibrated ones x scale
 };
 
 // `where`: the lattice point nearest to it is the ghost; `over`: the ghost's
@@ -183,4 +184,4 @@ inline Case build(const std::string &text, pipeline::Point where = {0.125, 0.145
     return g;
 }
 
-}  // namespace verdict_ghost
+} // namespace verdict_ghost

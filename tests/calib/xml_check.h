@@ -91,4 +91,4 @@ inline std::size_t count(const std::string &s, const std::string &needle)
     return n;
 }
 
-}  // namespace xml_check
+} // namespace xml_check

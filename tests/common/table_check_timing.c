@@ -18,7 +18,14 @@ static double now_s(void)
 }
 
 /* Best of `reps` timings of fn(ctx): the least disturbed run on a shared machine. */
-struct job { const uint8_t *b; size_t size; const int16_t *s; uint32_t k; uint64_t per_focus; int what; };
+struct job {
+    const uint8_t *b;
+    size_t size;
+    const int16_t *s;
+    uint32_t k;
+    uint64_t per_focus;
+    int what;
+};
 static volatile int64_t sink;
 
 static void run(const struct job *j)
@@ -80,8 +87,9 @@ int main(int argc, char **argv)
         }
         for (int c = 0; c < 2 * C; c++)
             cxy[c] = 0.01 * c;
-        haptic_table_spec spec = {48000, C, K, N, cxy, ids, fxy, scale, s, "timing", NULL, NULL, NULL,
-                                  HAPTIC_DRIVE_FORCE, 1.0, lead, NULL, NULL};
+        haptic_table_spec spec = {48000, C,    K,        N,    cxy,  ids,  fxy,
+                                  scale, s,    "timing", NULL, NULL, NULL, HAPTIC_DRIVE_FORCE,
+                                  1.0,   lead, NULL,     NULL};
         uint64_t size = haptic_table_encoded_size(&spec);
         uint8_t *b = malloc(size);
         haptic_table_error err;

@@ -76,8 +76,7 @@ static void device_formats_round_half_up_and_saturate(void **state)
 {
     (void)state;
     const int64_t one = (int64_t)1 << 30, half = one / 2;
-    const int64_t acc[] = {0, half, half - 1, -half, -half - 1, 32767 * one, 32768 * one, -32768 * one,
-                           -32769 * one};
+    const int64_t acc[] = {0, half, half - 1, -half, -half - 1, 32767 * one, 32768 * one, -32768 * one, -32769 * one};
     int16_t s16[9];
     assert_int_equal(haptic_mix_to_s16(acc, s16, 9), 2);
     const int16_t want16[] = {0, 1, 0, 0, -1, 32767, 32767, -32768, -32768};

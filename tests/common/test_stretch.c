@@ -51,8 +51,7 @@ static double dtft(const int16_t *x, uint32_t channels, uint32_t c, uint32_t a, 
 
 /* Where that magnitude is largest within 10 % of f0: 1 Hz steps, then
  * 0.02 Hz steps around the best. */
-static double measured_frequency(const int16_t *x, uint32_t channels, uint32_t c, uint32_t a, uint32_t b,
-                                 double f0)
+static double measured_frequency(const int16_t *x, uint32_t channels, uint32_t c, uint32_t a, uint32_t b, double f0)
 {
     double fb = f0, best = -1;
     for (double f = 0.9 * f0; f <= 1.1 * f0; f += 1.0) {
@@ -114,8 +113,8 @@ static void a_stretched_pulse_peaks_at_its_time_over_the_ratio(void **state)
     const double t0 = 0.030, T = 2 / 300.0;
     for (uint32_t i = 0; i < frames; i++) {
         const double t = i / RATE - t0;
-        in[i] = fabs(t) < T / 2 ? (int16_t)lrint(30000 * 0.5 * (1 + cos(2 * M_PI * t / T)) * cos(2 * M_PI * 300 * t))
-                                : 0;
+        in[i] =
+            fabs(t) < T / 2 ? (int16_t)lrint(30000 * 0.5 * (1 + cos(2 * M_PI * t / T)) * cos(2 * M_PI * 300 * t)) : 0;
     }
     const double ratios[] = {0.985, 1.0, 1.015};
     for (size_t k = 0; k < 3; k++) {

@@ -426,17 +426,20 @@ static void gain_range_clamp_rule(void **state)
     const haptic_gain_range r = {0.5, 2.0}, open = {0.5, INFINITY}, failing = {3.0, 2.0}, same = {2.0, 2.0};
     const double top = 2.0 * (1.0 - 1e-6);
     assert_true(top == 1.999998 && top < 2.0);
-    struct { const haptic_gain_range *r; double g, want; } cases[] = {
-        {&r, 1.0, 1.0},       {&r, 0.5, 0.5},       {&r, 0.1, 0.5},         {&r, 0.0, 0.5},
-        {&r, top, top},       {&r, 1.9999985, top}, {&r, 2.0, top},         {&r, 3.0, top},
-        {&r, NAN, 0.5},       {&open, 1e9, 1e9},    {&open, 0.1, 0.5},      {&failing, 0.0, top},
-        {&failing, 2.5, top}, {&failing, 9.0, top}, {&same, 2.0, top},      {&same, 0.0, top},
+    struct {
+        const haptic_gain_range *r;
+        double g, want;
+    } cases[] = {
+        {&r, 1.0, 1.0},       {&r, 0.5, 0.5},       {&r, 0.1, 0.5},    {&r, 0.0, 0.5},
+        {&r, top, top},       {&r, 1.9999985, top}, {&r, 2.0, top},    {&r, 3.0, top},
+        {&r, NAN, 0.5},       {&open, 1e9, 1e9},    {&open, 0.1, 0.5}, {&failing, 0.0, top},
+        {&failing, 2.5, top}, {&failing, 9.0, top}, {&same, 2.0, top}, {&same, 0.0, top},
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         const double got = haptic_gain_range_clamp(cases[i].r, cases[i].g);
         if (got != cases[i].want)
-            fail_msg("case %zu: clamp([%g, %g), %g) = %.17g, want %.17g", i, cases[i].r->lo, cases[i].r->hi,
-                     cases[i].g, got, cases[i].want);
+            fail_msg("case %zu: clamp([%g, %g), %g) = %.17g, want %.17g", i, cases[i].r->lo, cases[i].r->hi, cases[i].g,
+                     got, cases[i].want);
     }
     /* A hi so small that the margin rounds away: still strictly below it. */
     const haptic_gain_range tiny = {4.9406564584124654e-324, 4.9406564584124654e-324};

@@ -68,12 +68,17 @@ static void every_single_bit_flip_is_refused(void **state)
 
 /* legal_lo..legal_hi: values that are valid for the field without changing
  * the layout (only the sample rate has such values). */
-struct field { size_t offset, width; const char *name; uint64_t legal_lo, legal_hi; };
+struct field {
+    size_t offset, width;
+    const char *name;
+    uint64_t legal_lo, legal_hi;
+};
 static const struct field header_fields[] = {
-    {8, 2, "format_major", 1, 0}, {12, 4, "header_size", 1, 0}, {20, 4, "sample_rate_hz", 1000, 768000}, {24, 2, "channel_count", 1, 0},
-    {26, 2, "sample_format", 1, 0}, {28, 4, "focus_count", 1, 0}, {32, 4, "samples_per_signal", 1, 0}, {36, 4, "reserved0", 1, 0},
-    {40, 8, "file_size", 1, 0}, {48, 8, "channels_offset", 1, 0}, {56, 8, "foci_offset", 1, 0}, {64, 8, "gram_offset", 1, 0},
-    {72, 8, "provenance_offset", 1, 0}, {80, 8, "payload_offset", 1, 0}, {88, 8, "payload_size", 1, 0},
+    {8, 2, "format_major", 1, 0},        {12, 4, "header_size", 1, 0},    {20, 4, "sample_rate_hz", 1000, 768000},
+    {24, 2, "channel_count", 1, 0},      {26, 2, "sample_format", 1, 0},  {28, 4, "focus_count", 1, 0},
+    {32, 4, "samples_per_signal", 1, 0}, {36, 4, "reserved0", 1, 0},      {40, 8, "file_size", 1, 0},
+    {48, 8, "channels_offset", 1, 0},    {56, 8, "foci_offset", 1, 0},    {64, 8, "gram_offset", 1, 0},
+    {72, 8, "provenance_offset", 1, 0},  {80, 8, "payload_offset", 1, 0}, {88, 8, "payload_size", 1, 0},
 };
 
 static void put(uint8_t *p, size_t width, uint64_t v)
@@ -88,9 +93,22 @@ static void hostile_header_values_are_refused_by_the_field_check(void **state)
     uint8_t *b;
     size_t size = small_table(&b);
     uint8_t *work = malloc(size);
-    const uint64_t hostile[] = {0, 1, 0x7F, 0xFF, 0x7FFF, 0x8000, 0xFFFF, 0x7FFFFFFF, 0x80000000u, 0xFFFFFFFFu,
-                                0x100000000ull, 0x7FFFFFFFFFFFFFFFull, 0x8000000000000000ull, UINT64_MAX,
-                                (uint64_t)-8, (uint64_t)-64};
+    const uint64_t hostile[] = {0,
+                                1,
+                                0x7F,
+                                0xFF,
+                                0x7FFF,
+                                0x8000,
+                                0xFFFF,
+                                0x7FFFFFFF,
+                                0x80000000u,
+                                0xFFFFFFFFu,
+                                0x100000000ull,
+                                0x7FFFFFFFFFFFFFFFull,
+                                0x8000000000000000ull,
+                                UINT64_MAX,
+                                (uint64_t)-8,
+                                (uint64_t)-64};
     haptic_table_error err;
     for (size_t f = 0; f < sizeof header_fields / sizeof *header_fields; f++)
         for (size_t h = 0; h < sizeof hostile / sizeof *hostile; h++) {
@@ -173,7 +191,13 @@ static void inconsistent_records_are_refused(void **state)
     assert_int_equal(haptic_table_validate(b, size, &t, NULL), 0);
     haptic_table_error err;
     const double nan = NAN, inf = INFINITY, neg = -1.0, big = 1e9, hot = 301.0, soft = 0.051;
-    struct { uint64_t off; const void *val; size_t n; int want; const char *needle; } edits[] = {
+    struct {
+        uint64_t off;
+        const void *val;
+        size_t n;
+        int want;
+        const char *needle;
+    } edits[] = {
         {t.channels_offset, &nan, 8, HAPTIC_TABLE_EFIELD, "channel 0 x_m"},
         {t.channels_offset + 24, &big, 8, HAPTIC_TABLE_EFIELD, "channel 1 y_m"},
         {t.foci_offset + 8, &inf, 8, HAPTIC_TABLE_EFIELD, "focus 0 x_m"},

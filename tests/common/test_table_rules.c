@@ -70,8 +70,8 @@ static size_t tiny_table(uint8_t **out)
     static int16_t s[] = {3, 4, -32768, 1};
     static const double cxy[] = {0.0, 0.0}, fxy[] = {0.1, 0.1, 0.2, 0.2}, scale[] = {1e-5, 1e-5}, lead[] = {0, 0};
     static const uint32_t ids[] = {1, 2};
-    haptic_table_spec spec = {1000, 1, 2, 2, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL,
-                              HAPTIC_DRIVE_FORCE, 1.0, lead, NULL, NULL};
+    haptic_table_spec spec = {
+        1000, 1, 2, 2, cxy, ids, fxy, scale, s, NULL, NULL, NULL, NULL, HAPTIC_DRIVE_FORCE, 1.0, lead, NULL, NULL};
     size_t size = (size_t)haptic_table_encoded_size(&spec);
     *out = malloc(size);
     haptic_table_error err;
@@ -210,8 +210,8 @@ static void off_diagonal_check_follows_the_documented_cost_bound(void **state)
         if (k == 1) /* (within the bound, accepting the intact table costs all 4.3e9 products) */
             assert_int_equal(check(b, size, NULL), 0);
         double e = get_f64(b + gr);
-        put_f64(b + gr + 8, e - 1);          /* gram[0][1] */
-        put_f64(b + gr + 1024 * 8, e - 1);   /* gram[1][0] */
+        put_f64(b + gr + 8, e - 1);        /* gram[0][1] */
+        put_f64(b + gr + 1024 * 8, e - 1); /* gram[1][0] */
         table_fixture_fix_crc(b, size);
         haptic_table_error err;
         int rc = check(b, size, &err);
@@ -238,7 +238,10 @@ static void cauchy_schwarz_slack_is_1e_9_above_the_cost_bound(void **state)
     const double e = get_f64(b + gr);
     const double bound = sqrt(e * e) * (1.0 + 1e-9);
     assert_true(e == 27344700.0 && bound > e); /* 41 x 666700 + 100^2; the bound a true violation */
-    struct { double g; int want; } cases[] = {
+    struct {
+        double g;
+        int want;
+    } cases[] = {
         {bound, 0},
         {-bound, 0},
         {nextafter(bound, INFINITY), HAPTIC_TABLE_EGRAM},
@@ -325,10 +328,14 @@ static void reserved_bytes_and_gaps_are_zero_up_to_the_known_minor(void **state)
     assert_int_equal(pb, 632);
     assert_int_equal(pl, 704);
     /* 104..111 and 112..119: the absent panel and range sections' offsets. */
-    struct { uint64_t at; uint8_t v; const char *needle; } edits[] = {
-        {gap, 1, "gap between sections"}, {pl - 1, 0x80, "gap between sections"},
-        {104, 1, "header reserved"}, {112, 1, "header reserved"}, {119, 0x80, "header reserved"},
-        {120, 1, "header reserved"}, {127, 1, "header reserved"},
+    struct {
+        uint64_t at;
+        uint8_t v;
+        const char *needle;
+    } edits[] = {
+        {gap, 1, "gap between sections"}, {pl - 1, 0x80, "gap between sections"}, {104, 1, "header reserved"},
+        {112, 1, "header reserved"},      {119, 0x80, "header reserved"},         {120, 1, "header reserved"},
+        {127, 1, "header reserved"},
     };
     for (size_t i = 0; i < sizeof edits / sizeof *edits; i++) {
         memcpy(w, b, size);
@@ -358,21 +365,27 @@ static void provenance_text_is_checked_as_documented(void **state)
     w = malloc(size);
     const uint64_t pr = le64(b + 72);
     /* field offset, text (NUL-padded to 64), 0 = accepted or the offending byte's index in the field. */
-    struct { unsigned field; const char *text; size_t n; long bad; const char *needle; } cases[] = {
-        {0, "", 0, -1, NULL},                                  /* empty: not known */
+    struct {
+        unsigned field;
+        const char *text;
+        size_t n;
+        long bad;
+        const char *needle;
+    } cases[] = {
+        {0, "", 0, -1, NULL}, /* empty: not known */
         {0, "Glasplatte \xc3\xbc \xe2\x82\xac \xf0\x9f\x91\x86", 22, -1, NULL},
-        {0, "a\xc3(", 3, 1, "not valid UTF-8"},                 /* lead byte without continuation */
-        {0, "\xc0\xaf", 2, 0, "not valid UTF-8"},              /* overlong '/' */
-        {0, "\xed\xa0\x80", 3, 0, "not valid UTF-8"},          /* surrogate U+D800 */
-        {0, "\xf4\x90\x80\x80", 4, 0, "not valid UTF-8"},      /* U+110000 */
-        {0, "x\xc2\x85", 3, 1, "control character U+0085"},    /* C1 NEL */
-        {0, "x\x1b[31m", 6, 1, "control character U+001B"},    /* an escape sequence */
+        {0, "a\xc3(", 3, 1, "not valid UTF-8"},             /* lead byte without continuation */
+        {0, "\xc0\xaf", 2, 0, "not valid UTF-8"},           /* overlong '/' */
+        {0, "\xed\xa0\x80", 3, 0, "not valid UTF-8"},       /* surrogate U+D800 */
+        {0, "\xf4\x90\x80\x80", 4, 0, "not valid UTF-8"},   /* U+110000 */
+        {0, "x\xc2\x85", 3, 1, "control character U+0085"}, /* C1 NEL */
+        {0, "x\x1b[31m", 6, 1, "control character U+001B"}, /* an escape sequence */
         {128, "calibgen 0.1.0", 14, -1, NULL},
         {64, "crc32:0badf00d", 14, -1, NULL},
         {64, "sha-1:00", 8, -1, NULL},
         {64, "CRC32:0badf00d", 14, 0, "algorithm:hex"},
         {64, "crc32:0BADF00D", 14, 7, "algorithm:hex"},
-        {64, "crc32:abc", 9, 8, "algorithm:hex"},               /* not a whole number of bytes */
+        {64, "crc32:abc", 9, 8, "algorithm:hex"}, /* not a whole number of bytes */
         {64, "crc32:", 6, 5, "algorithm:hex"},
         {64, "crc32", 5, 5, "algorithm:hex"},
         {64, ":00", 3, 0, "algorithm:hex"},
@@ -426,15 +439,29 @@ static void playback_section_is_checked_as_documented(void **state)
     assert_true(isnan(haptic_table_lead_time_s(&t, 2)));
 
     const double last = 480.0 / 48000.0 + 1.0; /* N / rate + 1 s, in binary64 */
-    struct { uint64_t at; int width; double f; uint64_t u; int ok; } cases[] = {
-        {pb + 0, 8, 1e6, 0, 1},                     {pb + 0, 8, nextafter(1e6, 2e6), 0, 0},
-        {pb + 0, 8, 0.0, 0, 0},                     {pb + 0, 8, NAN, 0, 0},
-        {pb + 0, 8, -2.5, 0, 0},                    {pb + 8, 2, 0, 1, 1},
-        {pb + 8, 2, 0, 3, 1},                       {pb + 8, 2, 0, 0, 0},
-        {pb + 8, 2, 0, 4, 0},                       {pb + 10, 2, 0, 1, 0},
-        {pb + 12, 4, 0, 1, 0},                      {pb + 16, 8, 0.0, 0, 1},
-        {pb + 16, 8, -0.0, 0, 1},                   {pb + 24, 8, last, 0, 1},
-        {pb + 24, 8, nextafter(last, 2.0), 0, 0},   {pb + 16, 8, -1e-300, 0, 0},
+    struct {
+        uint64_t at;
+        int width;
+        double f;
+        uint64_t u;
+        int ok;
+    } cases[] = {
+        {pb + 0, 8, 1e6, 0, 1},
+        {pb + 0, 8, nextafter(1e6, 2e6), 0, 0},
+        {pb + 0, 8, 0.0, 0, 0},
+        {pb + 0, 8, NAN, 0, 0},
+        {pb + 0, 8, -2.5, 0, 0},
+        {pb + 8, 2, 0, 1, 1},
+        {pb + 8, 2, 0, 3, 1},
+        {pb + 8, 2, 0, 0, 0},
+        {pb + 8, 2, 0, 4, 0},
+        {pb + 10, 2, 0, 1, 0},
+        {pb + 12, 4, 0, 1, 0},
+        {pb + 16, 8, 0.0, 0, 1},
+        {pb + 16, 8, -0.0, 0, 1},
+        {pb + 24, 8, last, 0, 1},
+        {pb + 24, 8, nextafter(last, 2.0), 0, 0},
+        {pb + 16, 8, -1e-300, 0, 0},
         {pb + 24, 8, INFINITY, 0, 0},
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
@@ -474,10 +501,17 @@ static void panel_section_is_checked_as_documented(void **state)
     w = malloc(size);
     const uint64_t pb = le64(b + 96), pn = le64(b + 104);
     assert_int_equal(pn, pb + 16 + 2 * 8);
-    struct { uint64_t at; double f; int ok; } cases[] = {
-        {pn, -100.0, 1}, {pn, nextafter(-100.0, -200.0), 0}, {pn, 300.0, 1}, {pn, nextafter(300.0, 400.0), 0},
-        {pn, NAN, 0},    {pn, -INFINITY, 0},                 {pn + 8, 0.05, 1}, {pn + 8, -0.05, 1},
-        {pn + 8, 0.0, 1}, {pn + 8, nextafter(0.05, 1.0), 0}, {pn + 8, NAN, 0},  {pn + 16, 1e-300, 0},
+    struct {
+        uint64_t at;
+        double f;
+        int ok;
+    } cases[] = {
+        {pn, -100.0, 1},      {pn, nextafter(-100.0, -200.0), 0},
+        {pn, 300.0, 1},       {pn, nextafter(300.0, 400.0), 0},
+        {pn, NAN, 0},         {pn, -INFINITY, 0},
+        {pn + 8, 0.05, 1},    {pn + 8, -0.05, 1},
+        {pn + 8, 0.0, 1},     {pn + 8, nextafter(0.05, 1.0), 0},
+        {pn + 8, NAN, 0},     {pn + 16, 1e-300, 0},
         {pn + 24, 1e-300, 0},
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
@@ -541,35 +575,58 @@ static void range_section_is_checked_as_documented(void **state)
     assert_int_equal(check(b, size, NULL), 0);
 
     const double max = HAPTIC_TABLE_RANGE_MAX_GAIN, tiny = 4.9406564584124654e-324;
-    struct { uint64_t at; int width; double f; uint64_t u; const char *field; } cases[] = {
+    struct {
+        uint64_t at;
+        int width;
+        double f;
+        uint64_t u;
+        const char *field;
+    } cases[] = {
         /* threshold_m: finite, 0 < t <= 1000 */
-        {rg, 8, 1000.0, 0, NULL},                    {rg, 8, tiny, 0, NULL},
+        {rg, 8, 1000.0, 0, NULL},
+        {rg, 8, tiny, 0, NULL},
         {rg, 8, nextafter(1000.0, 2000.0), 0, "range threshold_m"},
-        {rg, 8, 0.0, 0, "range threshold_m"},        {rg, 8, -0.0, 0, "range threshold_m"},
-        {rg, 8, -1e-6, 0, "range threshold_m"},      {rg, 8, NAN, 0, "range threshold_m"},
-        {rg, 8, INFINITY, 0, "range threshold_m"},   {rg, 8, -INFINITY, 0, "range threshold_m"},
+        {rg, 8, 0.0, 0, "range threshold_m"},
+        {rg, 8, -0.0, 0, "range threshold_m"},
+        {rg, 8, -1e-6, 0, "range threshold_m"},
+        {rg, 8, NAN, 0, "range threshold_m"},
+        {rg, 8, INFINITY, 0, "range threshold_m"},
+        {rg, 8, -INFINITY, 0, "range threshold_m"},
         /* scope: 1 or 2 */
-        {rg + 8, 2, 0, 2, NULL},                     {rg + 8, 2, 0, 0, "range scope"},
-        {rg + 8, 2, 0, 3, "range scope"},            {rg + 8, 2, 0, 0xFFFF, "range scope"},
+        {rg + 8, 2, 0, 2, NULL},
+        {rg + 8, 2, 0, 0, "range scope"},
+        {rg + 8, 2, 0, 3, "range scope"},
+        {rg + 8, 2, 0, 0xFFFF, "range scope"},
         {rg + 8, 2, 0, 0x0101, "range scope"},
         /* reserved: u16 at +10, u32 at +12 */
-        {rg + 10, 2, 0, 1, "range reserved"},        {rg + 11, 1, 0, 0x80, "range reserved"},
-        {rg + 12, 4, 0, 1, "range reserved"},        {rg + 15, 1, 0, 0x80, "range reserved"},
+        {rg + 10, 2, 0, 1, "range reserved"},
+        {rg + 11, 1, 0, 0x80, "range reserved"},
+        {rg + 12, 4, 0, 1, "range reserved"},
+        {rg + 15, 1, 0, 0x80, "range reserved"},
         /* gain_lo: finite, 0 < lo <= 1e6 */
-        {rg + 16, 8, max, 0, NULL},                  {rg + 16, 8, tiny, 0, NULL},
+        {rg + 16, 8, max, 0, NULL},
+        {rg + 16, 8, tiny, 0, NULL},
         {rg + 16, 8, nextafter(max, 2 * max), 0, "focus 0 gain_lo"},
-        {rg + 16, 8, 0.0, 0, "focus 0 gain_lo"},     {rg + 16, 8, -0.0, 0, "focus 0 gain_lo"},
-        {rg + 16, 8, -0.5, 0, "focus 0 gain_lo"},    {rg + 16, 8, NAN, 0, "focus 0 gain_lo"},
-        {rg + 16, 8, INFINITY, 0, "focus 0 gain_lo"}, {rg + 16, 8, -INFINITY, 0, "focus 0 gain_lo"},
+        {rg + 16, 8, 0.0, 0, "focus 0 gain_lo"},
+        {rg + 16, 8, -0.0, 0, "focus 0 gain_lo"},
+        {rg + 16, 8, -0.5, 0, "focus 0 gain_lo"},
+        {rg + 16, 8, NAN, 0, "focus 0 gain_lo"},
+        {rg + 16, 8, INFINITY, 0, "focus 0 gain_lo"},
+        {rg + 16, 8, -INFINITY, 0, "focus 0 gain_lo"},
         {rg + 32, 8, -NAN, 0, "focus 1 gain_lo"},
         /* gain_hi: 0 < hi <= 1e6, or +inf; lo >= hi allowed (a failing focus) */
-        {rg + 24, 8, max, 0, NULL},                  {rg + 24, 8, INFINITY, 0, NULL},
-        {rg + 24, 8, 0.5, 0, NULL},                  {rg + 24, 8, tiny, 0, NULL},
+        {rg + 24, 8, max, 0, NULL},
+        {rg + 24, 8, INFINITY, 0, NULL},
+        {rg + 24, 8, 0.5, 0, NULL},
+        {rg + 24, 8, tiny, 0, NULL},
         {rg + 24, 8, nextafter(max, 2 * max), 0, "focus 0 gain_hi"},
-        {rg + 24, 8, 0.0, 0, "focus 0 gain_hi"},     {rg + 24, 8, -0.0, 0, "focus 0 gain_hi"},
-        {rg + 24, 8, -2.0, 0, "focus 0 gain_hi"},    {rg + 24, 8, NAN, 0, "focus 0 gain_hi"},
+        {rg + 24, 8, 0.0, 0, "focus 0 gain_hi"},
+        {rg + 24, 8, -0.0, 0, "focus 0 gain_hi"},
+        {rg + 24, 8, -2.0, 0, "focus 0 gain_hi"},
+        {rg + 24, 8, NAN, 0, "focus 0 gain_hi"},
         {rg + 24, 8, -INFINITY, 0, "focus 0 gain_hi"},
-        {rg + 40, 8, 0.0, 0, "focus 1 gain_hi"},     {rg + 40, 8, 1e6, 0, NULL},
+        {rg + 40, 8, 0.0, 0, "focus 1 gain_hi"},
+        {rg + 40, 8, 1e6, 0, NULL},
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         memcpy(w, b, size);
@@ -615,8 +672,11 @@ static void range_section_placement(void **state)
     size_t size = range_table(&b);
     w = malloc(size);
     const uint64_t rg = 608, pl = 704;
-    struct { uint64_t off; const char *needle; } bad[] = {
-        {rg - 8, "overlaps a previous section"},  /* inside the panel section (576..608) */
+    struct {
+        uint64_t off;
+        const char *needle;
+    } bad[] = {
+        {rg - 8, "overlaps a previous section"}, /* inside the panel section (576..608) */
         {rg + 4, "is not a multiple of 8"},
         {0, "overlaps a previous section"},
         {UINT64_MAX - 7, "overlaps a previous section"},
@@ -763,7 +823,7 @@ static void range_section_round_trips(void **state)
     const haptic_gain_range want[4] = {
         {0.31622776601683794, 3.1622776601683795}, /* -10..+10 dB */
         {1e-300, INFINITY},
-        {2.0, 0.5},                                /* fails at every gain */
+        {2.0, 0.5}, /* fails at every gain */
         {HAPTIC_TABLE_RANGE_MAX_GAIN, HAPTIC_TABLE_RANGE_MAX_GAIN},
     };
     memcpy(fx.gain_range, want, sizeof want);
@@ -1095,7 +1155,13 @@ static void header_size_of_a_later_minor_is_a_multiple_of_8(void **state)
     uint8_t *w = insert_zeros(b, size, 128, 64);
     size += 64;
     assert_int_equal(le64(w + 48), 192);
-    struct { uint16_t minor; uint32_t header_size; int want; uint64_t at; const char *needle; } cases[] = {
+    struct {
+        uint16_t minor;
+        uint32_t header_size;
+        int want;
+        uint64_t at;
+        const char *needle;
+    } cases[] = {
         {2, 128, 0, 0, NULL},
         {2, 136, HAPTIC_TABLE_EFIELD, 12, "version 1.2 has 128"},
         {3, 128, 0, 0, NULL},
@@ -1132,9 +1198,13 @@ static void focus_scale_m_is_positive_and_at_most_1000(void **state)
     size_t size = fixture_table(&b);
     uint8_t *w = malloc(size);
     const uint64_t at = le64(b + 56) + 48 + 24; /* focus 1 scale_m */
-    struct { double v; int ok; } cases[] = {
-        {0.0, 0}, {-0.0, 0}, {4.9406564584124654e-324, 1}, {2.2250738585072014e-308, 1}, {1e-5, 1},
-        {1000.0, 1}, {nextafter(1000.0, 2000.0), 0}, {-1e-5, 0}, {INFINITY, 0}, {NAN, 0},
+    struct {
+        double v;
+        int ok;
+    } cases[] = {
+        {0.0, 0},      {-0.0, 0},   {4.9406564584124654e-324, 1},   {2.2250738585072014e-308, 1},
+        {1e-5, 1},     {1000.0, 1}, {nextafter(1000.0, 2000.0), 0}, {-1e-5, 0},
+        {INFINITY, 0}, {NAN, 0},
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         memcpy(w, b, size);

@@ -5,8 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-void fw_table_make(struct fw_table *t, uint16_t channels, uint32_t foci, uint32_t samples, enum fw_kind kind,
-                   int amp, uint32_t seed)
+void fw_table_make(struct fw_table *t, uint16_t channels, uint32_t foci, uint32_t samples, enum fw_kind kind, int amp,
+                   uint32_t seed)
 {
     memset(t, 0, sizeof *t);
     t->channels = channels;
@@ -34,9 +34,15 @@ void fw_table_make(struct fw_table *t, uint16_t channels, uint32_t foci, uint32_
                 int v;
                 x = x * 1664525u + 1013904223u;
                 switch (kind) {
-                case FW_RANDOM: v = (int)((x >> 8) % (uint32_t)(2 * amp + 1)) - amp; break;
-                case FW_DISJOINT: v = n / slot == f ? ((x >> 31) ? amp : -amp) : 0; break;
-                default: v = amp; break;
+                case FW_RANDOM:
+                    v = (int)((x >> 8) % (uint32_t)(2 * amp + 1)) - amp;
+                    break;
+                case FW_DISJOINT:
+                    v = n / slot == f ? ((x >> 31) ? amp : -amp) : 0;
+                    break;
+                default:
+                    v = amp;
+                    break;
                 }
                 t->samples_buf[((size_t)f * samples + n) * channels + c] = (int16_t)v;
             }

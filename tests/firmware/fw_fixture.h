@@ -9,26 +9,26 @@
 #include <stdint.h>
 
 enum fw_kind {
-    FW_RANDOM,    /* independent uniform samples in [-amp, amp] (deterministic LCG) */
-    FW_DISJOINT,  /* focus f is +-amp in its own time slot, 0 elsewhere: equal energies, Gram off-diagonal 0 */
-    FW_CONSTANT,  /* every sample = amp (maximally correlated foci) */
+    FW_RANDOM,   /* independent uniform samples in [-amp, amp] (deterministic LCG) */
+    FW_DISJOINT, /* focus f is +-amp in its own time slot, 0 elsewhere: equal energies, Gram off-diagonal 0 */
+    FW_CONSTANT, /* every sample = amp (maximally correlated foci) */
 };
 
 struct fw_table {
     uint16_t channels;
     uint32_t foci, samples;
     double *channel_xy, *focus_xy, *scale;
-    uint32_t *ids;             /* ids[f] = 1000 - 10 f: not sorted, not contiguous */
-    int16_t *samples_buf;      /* [focus][n][c] */
-    const haptic_panel *panel; /* the panel section fw_table_encode writes (NULL: none) */
+    uint32_t *ids;                  /* ids[f] = 1000 - 10 f: not sorted, not contiguous */
+    int16_t *samples_buf;           /* [focus][n][c] */
+    const haptic_panel *panel;      /* the panel section fw_table_encode writes (NULL: none) */
     const haptic_range_spec *range; /* the range section fw_table_encode writes (NULL: none) */
-    uint8_t *buf;              /* encoded file */
+    uint8_t *buf;                   /* encoded file */
     size_t size;
-    haptic_table table;        /* validated view of buf */
+    haptic_table table; /* validated view of buf */
 };
 
-void fw_table_make(struct fw_table *t, uint16_t channels, uint32_t foci, uint32_t samples, enum fw_kind kind,
-                   int amp, uint32_t seed);
+void fw_table_make(struct fw_table *t, uint16_t channels, uint32_t foci, uint32_t samples, enum fw_kind kind, int amp,
+                   uint32_t seed);
 /* Encode again, with a playback section (format 1.1) giving each focus's lead
  * time when lead_time_s is not NULL, without one (as a 1.0 writer) when NULL. */
 void fw_table_encode(struct fw_table *t, const double *lead_time_s);

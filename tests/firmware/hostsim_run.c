@@ -54,8 +54,9 @@ pid_t hs_start_live(const struct hs_files *f, int report, int *fd)
 {
     unlink(f->fifo);
     assert_int_equal(mkfifo(f->fifo, 0600), 0);
-    char *argv[] = {"hapticd", "--board", (char *)f->board, "--table", (char *)f->table, "--triggers",
-                    (char *)f->fifo, "--alsa-device", (char *)f->device, "--latency-report", (char *)f->report, NULL};
+    char *argv[] = {"hapticd",         "--board",          (char *)f->board,  "--table",
+                    (char *)f->table,  "--triggers",       (char *)f->fifo,   "--alsa-device",
+                    (char *)f->device, "--latency-report", (char *)f->report, NULL};
     if (!report)
         argv[9] = NULL;
     pid_t pid = hs_spawn(argv, f->err);
@@ -89,9 +90,10 @@ void hs_write_board_extra(const char *file, const char *format, const char *map,
     FILE *f = fopen(file, "w");
     assert_non_null(f);
     /* The shipped asoundrc, the documented host-sim parameters, a test format/map. */
-    fprintf(f, "[alsa]\ndevice = hostsim\nconfig = %.*s/asoundrc\nchannels = 8\nformat = %s\nrate_hz = 48000\n"
-               "period_frames = 64\nperiods = 2\nchannel_map = %s\npacing = clock\n%s"
-               "[realtime]\npriority = 0\nmlock = false\n",
+    fprintf(f,
+            "[alsa]\ndevice = hostsim\nconfig = %.*s/asoundrc\nchannels = 8\nformat = %s\nrate_hz = 48000\n"
+            "period_frames = 64\nperiods = 2\nchannel_map = %s\npacing = clock\n%s"
+            "[realtime]\npriority = 0\nmlock = false\n",
             (int)(strrchr(HOSTSIM_BOARD, '/') - HOSTSIM_BOARD), HOSTSIM_BOARD, format, map, alsa_extra);
     fclose(f);
 }
@@ -168,10 +170,7 @@ unsigned hs_file_count(const char *file, const char *needle)
     return k;
 }
 
-int hs_file_contains(const char *file, const char *needle)
-{
-    return hs_file_count(file, needle) > 0;
-}
+int hs_file_contains(const char *file, const char *needle) { return hs_file_count(file, needle) > 0; }
 
 void hs_wait_count(const char *file, const char *needle, unsigned k)
 {
@@ -183,10 +182,7 @@ void hs_wait_count(const char *file, const char *needle, unsigned k)
     fail_msg("%s never said '%s' %u times", file, needle, k);
 }
 
-void hs_wait_for(const char *file, const char *needle)
-{
-    hs_wait_count(file, needle, 1);
-}
+void hs_wait_for(const char *file, const char *needle) { hs_wait_count(file, needle, 1); }
 
 void hs_sleep_ms(long ms)
 {

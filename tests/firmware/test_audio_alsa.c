@@ -18,7 +18,7 @@
 
 #define MAXCALLS 32
 struct call {
-    char what;                 /* 'w' writei, 'r' recover, 's' start */
+    char what; /* 'w' writei, 'r' recover, 's' start */
     const void *buf;
     long frames_or_err;
 };
@@ -421,8 +421,7 @@ static void unpaced_device_is_detected(void **state)
     assert_int_equal(hd_audio_health_pace(48000 + 128, s0, s0 + 1000000000u, 48000, 128), HD_AUDIO_OK);
     /* A day later, its clock 100 ppm fast: still a device. */
     const uint64_t day = 86400ull * 1000000000u;
-    assert_int_equal(hd_audio_health_pace((uint64_t)(86400.0 * 48000 * 1.0001), s0, s0 + day, 48000, 128),
-                     HD_AUDIO_OK);
+    assert_int_equal(hd_audio_health_pace((uint64_t)(86400.0 * 48000 * 1.0001), s0, s0 + day, 48000, 128), HD_AUDIO_OK);
     /* The null plugin: 10 s of frames in 0.1 s. */
     assert_int_equal(hd_audio_health_pace(480000, s0, s0 + 100000000u, 48000, 128), HD_AUDIO_UNPACED);
     /* The bound: 1 s ahead (+5 % of the elapsed time) and the buffer. */

@@ -15,53 +15,52 @@
 #include <unistd.h>
 #include <cmocka.h>
 
-static const char *full =
-    "[alsa]\n"
-    "device = hw:CARD=Device,DEV=0\n"
-    "config = my.asoundrc\n"
-    "channels = 10\n"
-    "format = S16_LE\n"
-    "rate_hz = 44100\n"
-    "period_frames = 32\n"
-    "periods = 3\n"
-    "channel_map = 9, 8,7,6,5,4,3,2\n"
-    "pacing = clock\n"
-    "rewind = false\n"
-    "rewind_margin_frames = 48\n"
-    "[gpio]\n"
-    "chip = gpiochip4\n"
-    "lockout_ms = 120\n"
-    "[line 17]\n"
-    "foci = 3\n"
-    "active_low = true\n"
-    "bias = pull-up\n"
-    "[line 27]\n"
-    "foci = 1, 4,4000000000\n"
-    "active_low = no\n"
-    "bias = pull-down\n"
-    "[line 5]\n"
-    "foci = 2\n"
-    "bias = disable\n"
-    "[mixer]\n"
-    "gain_limit = 0.5\n"
-    "max_foci = 3\n"
-    "foci_policy = first\n"
-    "[exciters]\n"
-    "rated_power_w = 3, 3, 3, 3, 2, 2, 2, 2.5\n"
-    "impedance_ohm = 4\n"
-    "thermal_tau_s = 1.5\n"
-    "[amplifier]\n"
-    "full_scale_v = 8.5\n"
-    "[panel]\n"
-    "speed_ratio = 0.987\n"
-    "temperature_input = /sys/class/hwmon/hwmon2/temp1_input\n"
-    "temperature_poll_s = 2.5\n"
-    "temperature_step_k = 0.25\n"
-    "[table]\n"
-    "path = /var/lib/hapticd/plate.htab\n"
-    "[realtime]\n"
-    "priority = 70\n"
-    "mlock = off\n";
+static const char *full = "[alsa]\n"
+                          "device = hw:CARD=Device,DEV=0\n"
+                          "config = my.asoundrc\n"
+                          "channels = 10\n"
+                          "format = S16_LE\n"
+                          "rate_hz = 44100\n"
+                          "period_frames = 32\n"
+                          "periods = 3\n"
+                          "channel_map = 9, 8,7,6,5,4,3,2\n"
+                          "pacing = clock\n"
+                          "rewind = false\n"
+                          "rewind_margin_frames = 48\n"
+                          "[gpio]\n"
+                          "chip = gpiochip4\n"
+                          "lockout_ms = 120\n"
+                          "[line 17]\n"
+                          "foci = 3\n"
+                          "active_low = true\n"
+                          "bias = pull-up\n"
+                          "[line 27]\n"
+                          "foci = 1, 4,4000000000\n"
+                          "active_low = no\n"
+                          "bias = pull-down\n"
+                          "[line 5]\n"
+                          "foci = 2\n"
+                          "bias = disable\n"
+                          "[mixer]\n"
+                          "gain_limit = 0.5\n"
+                          "max_foci = 3\n"
+                          "foci_policy = first\n"
+                          "[exciters]\n"
+                          "rated_power_w = 3, 3, 3, 3, 2, 2, 2, 2.5\n"
+                          "impedance_ohm = 4\n"
+                          "thermal_tau_s = 1.5\n"
+                          "[amplifier]\n"
+                          "full_scale_v = 8.5\n"
+                          "[panel]\n"
+                          "speed_ratio = 0.987\n"
+                          "temperature_input = /sys/class/hwmon/hwmon2/temp1_input\n"
+                          "temperature_poll_s = 2.5\n"
+                          "temperature_step_k = 0.25\n"
+                          "[table]\n"
+                          "path = /var/lib/hapticd/plate.htab\n"
+                          "[realtime]\n"
+                          "priority = 70\n"
+                          "mlock = off\n";
 
 static void every_key(void **state)
 {
@@ -223,7 +222,8 @@ static const struct bad_case cases[] = {
     {"[exciters]\nimpedance_ohm = 4\n[amplifier]\nfull_scale_v = 10\n", "[exciters] rated_power_w", 0},
     {"[exciters]\nrated_power_w = 3\n[amplifier]\nfull_scale_v = 10\n", "[exciters] impedance_ohm", 0},
     {"[exciters]\nrated_power_w = 3\nimpedance_ohm = 4\n", "[amplifier] full_scale_v", 0},
-    {"[exciters]\nrated_power_w = 3,3\nimpedance_ohm = 4\n[amplifier]\nfull_scale_v = 10\n", "2 values for 8 exciters", 0},
+    {"[exciters]\nrated_power_w = 3,3\nimpedance_ohm = 4\n[amplifier]\nfull_scale_v = 10\n", "2 values for 8 exciters",
+     0},
     {"[amplifier]\nfull_scale_v = 10\n", "given without [exciters]", 0},
     {"[amplifier]\nfull_scale_v = 0\n", "[amplifier] full_scale_v", 4},
     {"[mixer]\ngain_limit = 17\n", "[mixer] gain_limit", 4},
@@ -360,9 +360,9 @@ static void long_lines_and_raw_bytes_are_refused_on_their_line(void **state)
             fail_msg("case %zu: '%s'", i, err);
     }
     /* UTF-8 text, tabs and CRLF line ends are text. */
-    assert_int_equal(hd_board_parse_string("; caf\xc3\xa9 \xe2\x80\x94 ok\r\n[alsa]\r\n\tdevice = hw:0\r\n", "t/board.ini", &b,
-                                           err),
-                     0);
+    assert_int_equal(
+        hd_board_parse_string("; caf\xc3\xa9 \xe2\x80\x94 ok\r\n[alsa]\r\n\tdevice = hw:0\r\n", "t/board.ini", &b, err),
+        0);
 }
 
 /* A NUL in a board file (hd_board_load: the file's own bytes, not a C
@@ -434,7 +434,9 @@ static void touch_section(void **state)
     assert_int_equal(hd_board_parse_string("[alsa]\ndevice = hw:0\n[touch]\nname = ILITEK Multi-Touch\n"
                                            "calib_1 = 0, 0, 0.010, 0.690\ncalib_2 = 4000,0,0.690,0.690\n"
                                            "calib_3 = 0,3000,0.010,0.010\nmax_distance_m = 0.08\n"
-                                           "hysteresis_m = 0\n", "b.ini", &b, err), 0);
+                                           "hysteresis_m = 0\n",
+                                           "b.ini", &b, err),
+                     0);
     assert_true(b.touch.enabled);
     assert_string_equal(b.touch.name, "ILITEK Multi-Touch");
     assert_string_equal(b.touch.device, "");
@@ -442,7 +444,9 @@ static void touch_section(void **state)
     assert_true(b.touch.calib[1][0] == 4000 && b.touch.calib[1][2] == 0.690 && b.touch.calib[2][3] == 0.010);
     assert_true(b.touch.max_distance_m == 0.08 && b.touch.hysteresis_m == 0);
     assert_int_equal(hd_board_parse_string("[alsa]\ndevice = hw:0\n[touch]\ndevice = /dev/input/event3\n"
-                                           "area_m = 0.7, 0, 0, 0.5\n", "b.ini", &b, err), 0);
+                                           "area_m = 0.7, 0, 0, 0.5\n",
+                                           "b.ini", &b, err),
+                     0);
     assert_string_equal(b.touch.device, "/dev/input/event3");
     assert_true(b.touch.has_area && b.touch.area_m[0] == 0.7 && b.touch.area_m[3] == 0.5);
     assert_true(b.touch.max_distance_m == 0.05 && b.touch.hysteresis_m == 0.005); /* defaults */
@@ -468,10 +472,15 @@ static void uint_list(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(every_key), cmocka_unit_test(defaults),     cmocka_unit_test(bad_values),
-        cmocka_unit_test(missing_file), cmocka_unit_test(refuses_what_is_not_a_regular_file),
+        cmocka_unit_test(every_key),
+        cmocka_unit_test(defaults),
+        cmocka_unit_test(bad_values),
+        cmocka_unit_test(missing_file),
+        cmocka_unit_test(refuses_what_is_not_a_regular_file),
         cmocka_unit_test(long_lines_and_raw_bytes_are_refused_on_their_line),
-        cmocka_unit_test(nul_bytes_and_huge_files_are_refused), cmocka_unit_test(uint_list), cmocka_unit_test(shipped_boards_parse),
+        cmocka_unit_test(nul_bytes_and_huge_files_are_refused),
+        cmocka_unit_test(uint_list),
+        cmocka_unit_test(shipped_boards_parse),
         cmocka_unit_test(touch_section),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

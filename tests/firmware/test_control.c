@@ -35,9 +35,9 @@ static void levels_and_refusals(void **state)
     }
     static const struct {
         const char *text, *why;
-    } bad[] = {{"loud", "is not a number of dB"}, {"-6 dBx", "is not a number of dB"},
-               {"-40.5", "outside -40..+20 dB"},  {"21", "outside -40..+20 dB"},
-               {"nan", "is not a number of dB"},  {"inf", "is not a number of dB"},
+    } bad[] = {{"loud", "is not a number of dB"},  {"-6 dBx", "is not a number of dB"},
+               {"-40.5", "outside -40..+20 dB"},   {"21", "outside -40..+20 dB"},
+               {"nan", "is not a number of dB"},   {"inf", "is not a number of dB"},
                {"-6 -3", "is not a number of dB"}, {"", "is not a number of dB"}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         err[0] = '\0';

@@ -141,8 +141,12 @@ static int reset(void **state)
 static struct hd_touch_board touch_board(void)
 {
     /* /dev/null stands in for the node: it opens; libevdev is the mock. */
-    struct hd_touch_board b = {.enabled = true, .device = "/dev/null", .has_area = true,
-                               .area_m = {0, 0, 0.7, 0.7}, .max_distance_m = 0.05, .hysteresis_m = 0.005};
+    struct hd_touch_board b = {.enabled = true,
+                               .device = "/dev/null",
+                               .has_area = true,
+                               .area_m = {0, 0, 0.7, 0.7},
+                               .max_distance_m = 0.05,
+                               .hysteresis_m = 0.005};
     return b;
 }
 
@@ -177,7 +181,7 @@ static void reads_into_the_touch_logic(void **state)
     add(LIBEVDEV_READ_STATUS_SYNC, LIBEVDEV_READ_FLAG_SYNC, EV_ABS, ABS_MT_SLOT, 1);
     add(LIBEVDEV_READ_STATUS_SYNC, LIBEVDEV_READ_FLAG_SYNC, EV_ABS, ABS_MT_TRACKING_ID, 3);
     add(LIBEVDEV_READ_STATUS_SYNC, LIBEVDEV_READ_FLAG_SYNC, EV_SYN, SYN_REPORT, 0);
-    add(-EAGAIN, LIBEVDEV_READ_FLAG_SYNC, 0, 0, 0); /* end of the sync */
+    add(-EAGAIN, LIBEVDEV_READ_FLAG_SYNC, 0, 0, 0);                                      /* end of the sync */
     add(LIBEVDEV_READ_STATUS_SUCCESS, LIBEVDEV_READ_FLAG_NORMAL, EV_SYN, SYN_REPORT, 0); /* normal again */
     assert_int_equal(hd_evdev_read(&e, &t, collect, &npushed), 0);
     assert_int_equal(next_ev, nscript);

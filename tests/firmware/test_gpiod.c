@@ -48,10 +48,7 @@ int __wrap_gpiod_line_request(struct gpiod_line *line, const struct gpiod_line_r
     requested[nrequested++] = *cfg;
     return 0;
 }
-int __wrap_gpiod_line_event_get_fd(struct gpiod_line *line)
-{
-    return 100 + (int)((int *)line - line_tokens);
-}
+int __wrap_gpiod_line_event_get_fd(struct gpiod_line *line) { return 100 + (int)((int *)line - line_tokens); }
 int __wrap_gpiod_line_event_read(struct gpiod_line *line, struct gpiod_line_event *ev)
 {
     (void)line;
@@ -82,8 +79,8 @@ static void board(struct hd_board *b)
     strcpy(b->gpio_chip, "gpiochip0");
     b->lockout_ms = 50;
     b->line_count = 2;
-    b->lines[0] = (struct hd_line){.offset = 17, .active_low = true, .bias = HD_BIAS_PULL_UP, .focus_count = 1,
-                                   .focus_ids = {3}};
+    b->lines[0] =
+        (struct hd_line){.offset = 17, .active_low = true, .bias = HD_BIAS_PULL_UP, .focus_count = 1, .focus_ids = {3}};
     b->lines[1] = (struct hd_line){.offset = 27, .bias = HD_BIAS_PULL_DOWN, .focus_count = 2, .focus_ids = {1, 4}};
 }
 
@@ -128,12 +125,12 @@ static void requests_and_events(void **state)
     struct hd_trigger t;
     hd_trigger_init(&t, &b);
     struct hd_event ev;
-    add_event(GPIOD_LINE_EVENT_FALLING_EDGE, 5, 0);          /* press on active-low 17 */
-    add_event(GPIOD_LINE_EVENT_RISING_EDGE, 5, 1000000);     /* bounce */
-    add_event(GPIOD_LINE_EVENT_RISING_EDGE, 5, 2000000);     /* press on active-high 27 */
-    events[nevents].rc = -1;                                 /* read error */
+    add_event(GPIOD_LINE_EVENT_FALLING_EDGE, 5, 0);      /* press on active-low 17 */
+    add_event(GPIOD_LINE_EVENT_RISING_EDGE, 5, 1000000); /* bounce */
+    add_event(GPIOD_LINE_EVENT_RISING_EDGE, 5, 2000000); /* press on active-high 27 */
+    events[nevents].rc = -1;                             /* read error */
     events[nevents++].err = EIO;
-    add_event(GPIOD_LINE_EVENT_FALLING_EDGE, 5, 100000000);  /* 17 again after its lockout */
+    add_event(GPIOD_LINE_EVENT_FALLING_EDGE, 5, 100000000); /* 17 again after its lockout */
     assert_int_equal(hd_gpio_read(&g, 0, &t, &ev), 1);
     assert_int_equal(ev.focus_count, 1);
     assert_int_equal(ev.focus_ids[0], 3);

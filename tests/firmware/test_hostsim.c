@@ -83,8 +83,8 @@ static void scripted(const char *format, const char *map_text, const unsigned *m
     fprintf(sf, "# test\nat 0 focus %u\nat 4800 foci %u,%u\nat 4810 focus %u\n", t.ids[0], t.ids[1], t.ids[2],
             t.ids[0]);
     fclose(sf);
-    char *argv[] = {"hapticd", "--board", f.board, "--table", f.table, "--script", f.script,
-                    "--alsa-device", f.device, NULL};
+    char *argv[] = {"hapticd",  "--board", f.board,         "--table", f.table,
+                    "--script", f.script,  "--alsa-device", f.device,  NULL};
     pid_t pid = hs_spawn(argv, f.err);
     assert_int_equal(hs_wait_exit(pid), 0);
 
@@ -198,10 +198,10 @@ static void sighup_keeps_old_table_on_corruption(void **state)
     assert_plays(w, a, &old_t, 0);
     sf_count_t b = hs_onset(w, frames, a + N);
     assert_true(b > a);
-    assert_plays(w, b, &old_t, 1);  /* the refused reload changed nothing */
+    assert_plays(w, b, &old_t, 1); /* the refused reload changed nothing */
     sf_count_t c = hs_onset(w, frames, b + N);
     assert_true(c > b);
-    assert_plays(w, c, &new_t, 0);  /* the good reload took effect */
+    assert_plays(w, c, &new_t, 0); /* the good reload took effect */
     assert_int_equal(hs_onset(w, frames, c + N), -1);
     /* Clock pacing: never more frames than the wall time the run took (and
      * the buffer written ahead) allows; a loaded machine only makes fewer. */
@@ -470,16 +470,16 @@ static double clamped(double lo, double hi, double level)
 
 /* frames [at, at + N) of the WAV hold `gain` times focus f of t (two foci
  * summed when f2 >= 0), to one S32 LSB (the Q30 gain's rounding). */
-static void assert_plays_at(const int32_t *w, sf_count_t at, const struct fw_table *t, uint32_t f, int f2,
-                            double gain, const char *what)
+static void assert_plays_at(const int32_t *w, sf_count_t at, const struct fw_table *t, uint32_t f, int f2, double gain,
+                            const char *what)
 {
     for (uint32_t n = 0; n < N; n++)
         for (uint32_t c = 0; c < C; c++) {
             const double s = fw_sample(t, f, n, c) + (f2 >= 0 ? fw_sample(t, (uint32_t)f2, n, c) : 0);
             const double want = gain * s * 65536.0, got = w[(at + n) * C + c];
             if (fabs(got - want) > 1.0)
-                fail_msg("%s: frame %ld+%u channel %u: %.0f, want %.1f (gain %.9g)", what, (long)at, n, c, got,
-                         want, gain);
+                fail_msg("%s: frame %ld+%u channel %u: %.0f, want %.1f (gain %.9g)", what, (long)at, n, c, got, want,
+                         gain);
         }
 }
 
@@ -504,8 +504,8 @@ static void scripted_safe_range_clamps_the_level(void **state)
     FILE *sf = fopen(f.script, "w");
     fprintf(sf, "at 0 focus %u\nat 4800 focus %u\nat 9600 foci %u,%u\n", t.ids[0], t.ids[1], t.ids[0], t.ids[1]);
     fclose(sf);
-    char *argv[] = {"hapticd", "--board", f.board, "--table", f.table, "--script", f.script,
-                    "--alsa-device", f.device, NULL};
+    char *argv[] = {"hapticd",  "--board", f.board,         "--table", f.table,
+                    "--script", f.script,  "--alsa-device", f.device,  NULL};
     assert_int_equal(hs_wait_exit(hs_spawn(argv, f.err)), 0);
     assert_int_equal(hs_file_count(f.err, "intensity "), 1); /* one line */
     assert_true(hs_file_contains(f.err, "intensity +0.0 dB: above the safe range of 1 of 2 foci (tops -6.0..-6.0 "
@@ -591,8 +591,9 @@ static void check_with_a_board_reports_the_exciters_cost(void **state)
         if (!line)
             fail_msg("no line '%s' in:\n%s", head, text);
         double mj, mw, hz, top_db, top_mj, top_hz;
-        assert_int_equal(sscanf(line + strlen(head), "%lf mJ a touch, heat +%lf mW, %lf touches/s; at the top of "
-                                                     "its safe range (%lf dB) %lf mJ, %lf touches/s",
+        assert_int_equal(sscanf(line + strlen(head),
+                                "%lf mJ a touch, heat +%lf mW, %lf touches/s; at the top of "
+                                "its safe range (%lf dB) %lf mJ, %lf touches/s",
                                 &mj, &mw, &hz, &top_db, &top_mj, &top_hz),
                          k == 0 ? 6 : 3);
         assert_true(fabs(mj / (1e3 * joules) - 1) < 1e-3);
@@ -614,8 +615,9 @@ static void check_with_a_board_reports_the_exciters_cost(void **state)
     snprintf(err, sizeof err, "%s.err", out);
     assert_int_equal(hs_file_count(err, "\n"), 1);
     assert_true(hs_file_contains(err, "no [exciters] ratings to compare the drives with"));
-    hs_write_board_extra(f.board, "S32_LE", "0,1,2,3", "[exciters]\nrated_power_w = 2\nimpedance_ohm = 8\n"
-                                                       "[amplifier]\nfull_scale_v = 10\n");
+    hs_write_board_extra(f.board, "S32_LE", "0,1,2,3",
+                         "[exciters]\nrated_power_w = 2\nimpedance_ohm = 8\n"
+                         "[amplifier]\nfull_scale_v = 10\n");
     assert_int_equal(check_into(argv, "exciters-channels.txt", out, sizeof out), 1);
     snprintf(err, sizeof err, "%s.err", out);
     assert_int_equal(hs_file_count(err, "\n"), 1);
@@ -644,7 +646,10 @@ static void live_level_is_clamped_into_the_safe_range(void **state)
     pid_t pid = hs_start_live(&f, 0, &fd);
     assert_true(hs_file_contains(f.err, "intensity +8.0 dB\n"));
     const double up = pow(10.0, 8.0 / 20.0), down = pow(10.0, -30.0 / 20.0);
-    struct { uint32_t focus; double gain; } voices[4];
+    struct {
+        uint32_t focus;
+        double gain;
+    } voices[4];
     sf_count_t onset[4], from = 0;
     for (int i = 0; i < 4; i++) {
         if (i == 1) {
@@ -663,8 +668,10 @@ static void live_level_is_clamped_into_the_safe_range(void **state)
                                "they play at their bottoms");
         }
         voices[i].focus = i == 2;
-        voices[i].gain = i == 0 ? up : i == 1 ? clamped(0.5, 2.0, up) : i == 2 ? clamped(0.25, INFINITY, up)
-                                                                              : clamped(0.5, 2.0, down);
+        voices[i].gain = i == 0   ? up
+                         : i == 1 ? clamped(0.5, 2.0, up)
+                         : i == 2 ? clamped(0.25, INFINITY, up)
+                                  : clamped(0.5, 2.0, down);
         hs_send_focus(fd, t.ids[voices[i].focus]);
         from = hs_wait_voice(f.wav, from, N, NULL, 0);
         onset[i] = from;
@@ -674,7 +681,7 @@ static void live_level_is_clamped_into_the_safe_range(void **state)
     hs_assert_clean_exit(pid, f.err);
     close(fd);
     assert_int_equal(hs_file_count(f.err, "safe range"), 2); /* once after the reload, once for -30 dB */
-    assert_int_equal(hs_file_count(f.err, "intensity "), 3);  /* the start's +8 dB, then those two */
+    assert_int_equal(hs_file_count(f.err, "intensity "), 3); /* the start's +8 dB, then those two */
     assert_true(voices[1].gain < 2.0 && voices[2].gain == up && voices[3].gain == 0.5);
     sf_count_t frames;
     int32_t *w = hs_read_wav(f.wav, &frames, SF_FORMAT_PCM_32);
@@ -698,8 +705,8 @@ static void bad_inputs_fail_cleanly(void **state)
     struct fw_table t;
     fw_table_make(&t, C, 1, 64, FW_RANDOM, 100, 3);
     fw_table_write(&t, f.table);
-    char *argv1[] = {"hapticd", "--board", HOSTSIM_BOARD, "--table", f.table, "--script", f.script,
-                     "--alsa-device", "null", NULL};
+    char *argv1[] = {"hapticd",  "--board", HOSTSIM_BOARD,   "--table", f.table,
+                     "--script", f.script,  "--alsa-device", "null",    NULL};
     assert_int_equal(hs_wait_exit(hs_spawn(argv1, f.err)), 1);
     char want[400];
     snprintf(want, sizeof want, "%s:2: unknown command 'wiggle'", f.script);

@@ -224,8 +224,8 @@ static void failing_device_ends_the_daemon(void **state)
     snprintf(device, sizeof device, "hostsim:FILE=\"%s/no/such/folder/out.wav\"", hs_dir);
     unlink(f.fifo);
     assert_int_equal(mkfifo(f.fifo, 0600), 0);
-    char *argv[] = {"hapticd", "--board", f.board, "--table", f.table, "--triggers", f.fifo,
-                    "--alsa-device", device, NULL};
+    char *argv[] = {"hapticd",    "--board", f.board,         "--table", f.table,
+                    "--triggers", f.fifo,    "--alsa-device", device,    NULL};
     pid_t pid = hs_spawn(argv, f.err);
     assert_int_equal(wait_exit_within(pid, 10), 1);
     size_t len;
@@ -259,8 +259,8 @@ static void unpaced_and_missing_devices_are_named(void **state)
     assert_int_equal(wait_exit_within(hs_spawn(argv, f.err), 10), 1);
     assert_true(hs_file_contains(f.err, "ALSA device 'null' takes frames faster than real time"));
     assert_true(hs_file_contains(f.err, "needs pacing = clock"));
-    char *argv2[] = {"hapticd", "--board", f.board, "--table", f.table, "--triggers", f.fifo,
-                     "--alsa-device", "nosuchpcm", NULL};
+    char *argv2[] = {"hapticd",    "--board", f.board,         "--table",   f.table,
+                     "--triggers", f.fifo,    "--alsa-device", "nosuchpcm", NULL};
     assert_int_equal(wait_exit_within(hs_spawn(argv2, f.err), 10), 1);
     size_t len;
     char *log = hs_slurp(f.err, &len);
@@ -289,8 +289,8 @@ static void early_signals_are_not_lost(void **state)
     hs_write_board(f.board, "S32_LE", "0,1,2,3,4,5,6,7");
     unlink(f.fifo);
     assert_int_equal(mkfifo(f.fifo, 0600), 0);
-    char *argv[] = {"hapticd", "--board", f.board, "--table", f.table, "--triggers", f.fifo,
-                    "--alsa-device", f.device, NULL};
+    char *argv[] = {"hapticd",    "--board", f.board,         "--table", f.table,
+                    "--triggers", f.fifo,    "--alsa-device", f.device,  NULL};
     const double t0 = now_s();
     pid_t pid = hs_spawn(argv, f.err);
     char status[64];
@@ -359,8 +359,8 @@ static void a_touch_storm_stays_within_the_exciters_ratings(void **state)
                              protect ? "[exciters]\nrated_power_w = 0.3\nimpedance_ohm = 4\nthermal_tau_s = 0.5\n"
                                        "[amplifier]\nfull_scale_v = 10\n"
                                      : "");
-        char *argv[] = {"hapticd", "--board", f.board, "--table", f.table, "--script", f.script,
-                        "--alsa-device", f.device, NULL};
+        char *argv[] = {"hapticd",  "--board", f.board,         "--table", f.table,
+                        "--script", f.script,  "--alsa-device", f.device,  NULL};
         assert_int_equal(wait_exit_within(hs_spawn(argv, f.err), 60), 0);
         const double worst = storm_worst_heat(f.wav);
         size_t len;
@@ -368,8 +368,8 @@ static void a_touch_storm_stays_within_the_exciters_ratings(void **state)
         unsigned long long frames, voices, lowered, skipped;
         const char *done = strstr(log, "script done: ");
         assert_non_null(done);
-        assert_int_equal(sscanf(done, "script done: %llu frames written, %llu voices (%llu lowered, %llu skipped", &frames,
-                                &voices, &lowered, &skipped),
+        assert_int_equal(sscanf(done, "script done: %llu frames written, %llu voices (%llu lowered, %llu skipped",
+                                &frames, &voices, &lowered, &skipped),
                          4);
         print_message("storm (%s): heat at most %.4f W (rating %.2f W), %llu voices, %llu lowered, %llu skipped\n",
                       protect ? "protected" : "unprotected", worst, rated, voices, lowered, skipped);

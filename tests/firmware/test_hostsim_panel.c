@@ -122,7 +122,8 @@ static void the_table_follows_the_panel_temperature(void **state)
     unlink(temp); /* the sensor's driver has not probed yet */
     snprintf(extra, sizeof extra,
              "[panel]\nspeed_ratio = 1.01\ntemperature_input = %s\ntemperature_poll_s = 0.2\n"
-             "temperature_step_k = 0.5\n", temp);
+             "temperature_step_k = 0.5\n",
+             temp);
     hs_write_board_extra(f.board, "S32_LE", "0,1,2,3,4,5,6,7", extra);
     int reads = watch_reads();
     int fd;
@@ -172,7 +173,10 @@ static void the_table_follows_the_panel_temperature(void **state)
 
     sf_count_t frames;
     int32_t *w = hs_read_wav(f.wav, &frames, SF_FORMAT_PCM_32);
-    const struct { uint32_t focus; double ratio; } voices[] = {{0, 1.01}, {1, hot}, {1, hotter}, {0, hotter}};
+    const struct {
+        uint32_t focus;
+        double ratio;
+    } voices[] = {{0, 1.01}, {1, hot}, {1, hotter}, {0, hotter}};
     sf_count_t at = 0;
     for (int v = 0; v < 4; v++) {
         at = hs_onset(w, frames, at);
@@ -190,8 +194,8 @@ static void the_table_follows_the_panel_temperature(void **state)
     fw_table_encode(&t, NULL);
     fw_table_write(&t, f.table);
     fw_write_text(temp, "23000\n");
-    char *argv2[] = {"hapticd", "--board", f.board, "--table", f.table, "--triggers", f.fifo,
-                     "--alsa-device", f.device, NULL};
+    char *argv2[] = {"hapticd",    "--board", f.board,         "--table", f.table,
+                     "--triggers", f.fifo,    "--alsa-device", f.device,  NULL};
     assert_int_equal(hs_wait_exit(hs_spawn(argv2, f.err)), 1);
     assert_true(hs_file_contains(f.err, "[panel] temperature_input: the table has no panel section"));
     fw_table_free(&t);

@@ -274,16 +274,20 @@ static void conversion_rounding_and_saturation(void **state)
     (void)state;
     const int64_t one = (int64_t)1 << 30;
     /* Hand-computed: round half up, saturate instead of wrapping. */
-    const int64_t acc[] = {0, one / 2, -one / 2, one + one / 2 - 1, -(one + one / 2), 32767 * one, 32768 * one,
-                           -32768 * one, -32769 * one, INT64_MAX / 4, -(INT64_MAX / 4)};
+    const int64_t acc[] = {0,           one / 2,      -one / 2,     one + one / 2 - 1, -(one + one / 2), 32767 * one,
+                           32768 * one, -32768 * one, -32769 * one, INT64_MAX / 4,     -(INT64_MAX / 4)};
     const int16_t want16[] = {0, 1, 0, 1, -1, 32767, 32767, -32768, -32768, 32767, -32768};
     int16_t out16[11];
     assert_int_equal(haptic_mix_to_s16(acc, out16, 11), 4);
     for (int i = 0; i < 11; i++)
         assert_int_equal(out16[i], want16[i]);
     const int64_t u = (int64_t)1 << 14; /* one S32 LSB */
-    const int64_t acc32[] = {u / 2, -u / 2, (int64_t)INT32_MAX * u, ((int64_t)INT32_MAX + 1) * u,
-                             (int64_t)INT32_MIN * u, ((int64_t)INT32_MIN - 1) * u};
+    const int64_t acc32[] = {u / 2,
+                             -u / 2,
+                             (int64_t)INT32_MAX * u,
+                             ((int64_t)INT32_MAX + 1) * u,
+                             (int64_t)INT32_MIN * u,
+                             ((int64_t)INT32_MIN - 1) * u};
     const int32_t want32[] = {1, 0, INT32_MAX, INT32_MAX, INT32_MIN, INT32_MIN};
     int32_t out32[6];
     assert_int_equal(haptic_mix_to_s32(acc32, out32, 6), 2);
@@ -397,7 +401,9 @@ static void program_lead_time_is_the_largest_focus_lead(void **state)
 static void a_mix_loud_only_in_its_last_or_first_peak_block_is_limited(void **state)
 {
     (void)state;
-    const struct { uint32_t frames, loud; } cases[] = {{394, 393}, {448, 447}, {394, 0}};
+    const struct {
+        uint32_t frames, loud;
+    } cases[] = {{394, 393}, {448, 447}, {394, 0}};
     for (int i = 0; i < 3; i++) {
         const uint32_t n_frames = cases[i].frames, loud = cases[i].loud;
         struct fw_table t;
@@ -425,8 +431,8 @@ static void a_mix_loud_only_in_its_last_or_first_peak_block_is_limited(void **st
         uint64_t clipped;
         int32_t *out = render_all(&t, p, idx, 2, HD_FMT_S16_LE, 2, identity, &m, &clipped);
         if (m.gain_peak != 32767.0 / 60000.0 || m.gain != m.gain_peak)
-            fail_msg("N=%u, loud frame %u: gain_peak %.9g (want 32767/60000), gain %.9g, gain_energy %.9g",
-                     n_frames, loud, m.gain_peak, m.gain, m.gain_energy);
+            fail_msg("N=%u, loud frame %u: gain_peak %.9g (want 32767/60000), gain %.9g, gain_energy %.9g", n_frames,
+                     loud, m.gain_peak, m.gain, m.gain_energy);
         assert_true(fabs(m.gain_energy - r.gain_energy) <= 1e-12 * r.gain_energy);
         assert_int_equal(clipped, 0);
         assert_int_equal(out[(size_t)loud * 2 + 1], 32767);

@@ -117,10 +117,10 @@ static void trigger_during_playback_adds_at_next_period(void **state)
     struct hd_engine *e = &r->e;
     int32_t out[8][P * C];
     uint32_t a = t->ids[0], bb = t->ids[1];
-    push(e, 1, &a);                  /* before period 0: starts at frame 0 */
+    push(e, 1, &a); /* before period 0: starts at frame 0 */
     hd_engine_period(e, out[0], P);
     hd_engine_period(e, out[1], P);
-    push(e, 1, &bb);                 /* during playback: starts at frame 2P, A goes on */
+    push(e, 1, &bb); /* during playback: starts at frame 2P, A goes on */
     for (int q = 2; q < 8; q++)
         hd_engine_period(e, out[q], P);
     for (uint32_t f = 0; f < 8 * P; f++)
@@ -251,8 +251,8 @@ static void reload_hands_over_at_a_boundary(void **state)
             assert_int_equal(out[i * C + c], (fw_sample(&ta, 0, P + i, c) + fw_sample(&tb, 0, i, c)) * 65536);
     assert_null(atomic_load(&e.retired)); /* A still plays */
     hd_engine_period(&e, out, P);
-    hd_engine_period(&e, out, P);         /* A's voice ended (200 frames) during this period */
-    hd_engine_period(&e, out, P);         /* ...and is retired at the next boundary */
+    hd_engine_period(&e, out, P); /* A's voice ended (200 frames) during this period */
+    hd_engine_period(&e, out, P); /* ...and is retired at the next boundary */
     assert_ptr_equal(atomic_load(&e.retired), pa);
     hd_engine_collect(&e);
     assert_null(atomic_load(&e.retired));
@@ -300,7 +300,7 @@ static void rewind_starts_a_voice_at_once(void **state)
     struct hd_engine *e = &r->e;
     static struct device d;
     memset(&d, 0, sizeof d);
-    hd_engine_start_at(e, 2 * P, 2 * P); /* pre-fill of 2 periods; rewinds reach 2 periods back */
+    hd_engine_start_at(e, 2 * P, 2 * P);              /* pre-fill of 2 periods; rewinds reach 2 periods back */
     assert_int_equal(hd_engine_rewindable(e), 2 * P); /* the pre-fill is silence: rendered again as such */
     /* A trigger right after the start: 24 frames of the pre-fill taken back, A at 2P - 24. */
     push(e, 1, &t->ids[0]);
@@ -432,7 +432,8 @@ static void trigger_storm_bounded_memory(void **state)
         hd_engine_period(e, out, P);
         hd_engine_written(e, hd_now_ns());
         periods++;
-        if (periods % 2 && hd_engine_pending(e) && hd_engine_rewindable(e) > 0) { /* a trigger answered at once: rewind, render again */
+        if (periods % 2 && hd_engine_pending(e) &&
+            hd_engine_rewindable(e) > 0) { /* a trigger answered at once: rewind, render again */
             uint64_t n = hd_engine_rewindable(e) < 40 ? hd_engine_rewindable(e) : 40;
             hd_engine_rewind(e, n);
             hd_engine_period(e, out, (uint32_t)n);
@@ -491,7 +492,7 @@ static void idle_after_the_last_voice(void **state)
     hd_engine_period(e, out, P);     /* frames 0..63 of 100 */
     assert_false(hd_engine_idle(e)); /* out of the ring, counted as a voice */
     assert_int_equal(atomic_load(&e->stats.active_voices), 1);
-    hd_engine_period(e, out, P);     /* frames 64..127: the voice ends at 100 */
+    hd_engine_period(e, out, P); /* frames 64..127: the voice ends at 100 */
     assert_true(hd_engine_idle(e));
     assert_int_equal(atomic_load(&e->stats.active_voices), 0);
 }
@@ -520,18 +521,20 @@ static void a_voice_plays_within_its_foci_safe_range(void **state)
     haptic_range_spec spec;
     set_ranges(&t, &spec, r);
     const double top2 = 2.0 * (1 - 1e-6), top08 = 0.8 * (1 - 1e-6), s2 = sqrt(0.5);
-    struct { uint32_t n, f[2]; double level, want, hi; } cases[] = {
-        {1, {0, 0}, 1.0, 1.0, 2.0},     /* inside */
-        {1, {0, 0}, 0.01, 0.5, 2.0},    /* below: its bottom */
-        {1, {0, 0}, 3.5, top2, 2.0},    /* above: its top */
-        {1, {1, 0}, 1.0, 1.25, 3.0},
-        {1, {2, 0}, 1.0, top08, 0.8},
+    struct {
+        uint32_t n, f[2];
+        double level, want, hi;
+    } cases[] = {
+        {1, {0, 0}, 1.0, 1.0, 2.0},  /* inside */
+        {1, {0, 0}, 0.01, 0.5, 2.0}, /* below: its bottom */
+        {1, {0, 0}, 3.5, top2, 2.0}, /* above: its top */
+        {1, {1, 0}, 1.0, 1.25, 3.0},     {1, {2, 0}, 1.0, top08, 0.8},
         {1, {3, 0}, 3.5, 3.5, INFINITY}, /* unbounded above */
         {1, {3, 0}, 6.0, 4.0, INFINITY}, /* gain_limit binds, not the range */
-        {2, {0, 1}, 1.0, 1.25, 2.0},    /* [1.25, 2): 1/sqrt(2) raised to 1.25 */
-        {2, {0, 2}, 1.0, s2, 0.8},      /* [0.5, 0.8): 1/sqrt(2) inside */
-        {2, {0, 2}, 2.0, top08, 0.8},   /* sqrt(2) lowered to the top */
-        {2, {1, 2}, 1.0, top08, 0.8},   /* [1.25, 0.8) holds no gain: the top, safety first */
+        {2, {0, 1}, 1.0, 1.25, 2.0},     /* [1.25, 2): 1/sqrt(2) raised to 1.25 */
+        {2, {0, 2}, 1.0, s2, 0.8},       /* [0.5, 0.8): 1/sqrt(2) inside */
+        {2, {0, 2}, 2.0, top08, 0.8},    /* sqrt(2) lowered to the top */
+        {2, {1, 2}, 1.0, top08, 0.8},    /* [1.25, 0.8) holds no gain: the top, safety first */
     };
     for (int with = 1; with >= 0; with--) {
         if (!with)
@@ -584,11 +587,14 @@ static void protection_skips_a_voice_it_would_lower_below_its_range(void **state
     struct fw_table t;
     fw_table_make(&t, C, 1, 256, FW_CONSTANT, 3000, 1);
     const double J = (10.0 / 32767.0) * (10.0 / 32767.0) / 4.0 / 48000.0, E = 256.0 * 3000.0 * 3000.0;
-    const struct { int ranged; double lo; double want; } cases[] = {
-        {0, 0, 0.6},     /* no range section: lowered to 0.6, as before */
-        {1, 0.5, 0.6},   /* bottom 0.5: lowered to 0.6, still inside */
-        {1, 0.59, 0.6},
-        {1, 0.61, 0.0},  /* bottom 0.61: 0.6 would not be felt: skipped */
+    const struct {
+        int ranged;
+        double lo;
+        double want;
+    } cases[] = {
+        {0, 0, 0.6},                    /* no range section: lowered to 0.6, as before */
+        {1, 0.5, 0.6},                  /* bottom 0.5: lowered to 0.6, still inside */
+        {1, 0.59, 0.6}, {1, 0.61, 0.0}, /* bottom 0.61: 0.6 would not be felt: skipped */
         {1, 0.9, 0.0},
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
@@ -632,15 +638,23 @@ static void the_clamp_is_said_in_one_line(void **state)
     struct hd_board b;
     struct hd_program *p = program(&t, &b);
     char line[HD_ERR_MAX];
-    const struct { double level; int n; const char *want; } cases[] = {
-        {1.0, 2, "intensity +0.0 dB: above the safe range of 1 of 4 foci (tops -1.9..-1.9 dB): they play at their "
-                 "tops; below the safe range of 1 of 4 foci (bottoms +1.9..+1.9 dB): they play at their bottoms"},
-        {pow(10, 8 / 20.0), 2, "intensity +8.0 dB: above the safe range of 2 of 4 foci (tops -1.9..+6.0 dB): they "
-                               "play at their tops"},
-        {0.5, 1, "intensity -6.0 dB: below the safe range of 1 of 4 foci (bottoms +1.9..+1.9 dB): they play at "
-                 "their bottoms"},
-        {0.01, 4, "intensity -40.0 dB: below the safe range of 4 of 4 foci (bottoms -20.0..+1.9 dB): they play at "
-                  "their bottoms"},
+    const struct {
+        double level;
+        int n;
+        const char *want;
+    } cases[] = {
+        {1.0, 2,
+         "intensity +0.0 dB: above the safe range of 1 of 4 foci (tops -1.9..-1.9 dB): they play at their "
+         "tops; below the safe range of 1 of 4 foci (bottoms +1.9..+1.9 dB): they play at their bottoms"},
+        {pow(10, 8 / 20.0), 2,
+         "intensity +8.0 dB: above the safe range of 2 of 4 foci (tops -1.9..+6.0 dB): they "
+         "play at their tops"},
+        {0.5, 1,
+         "intensity -6.0 dB: below the safe range of 1 of 4 foci (bottoms +1.9..+1.9 dB): they play at "
+         "their bottoms"},
+        {0.01, 4,
+         "intensity -40.0 dB: below the safe range of 4 of 4 foci (bottoms -20.0..+1.9 dB): they play at "
+         "their bottoms"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         assert_int_equal(hd_program_range_note(p, cases[i].level, line, sizeof line), cases[i].n);

@@ -42,7 +42,10 @@ static void a_coherent_storm_stays_within_the_rating(void **state)
     const uint32_t period = 48, voice = 2400;
     const double amp = 20000.0;
     const double root_one = amp * sqrt((double)voice); /* sqrt of the voice's energy at gain 1 */
-    struct { uint64_t start; double g; } v[64];
+    struct {
+        uint64_t start;
+        double g;
+    } v[64];
     unsigned nv = 0, answered = 0, touches = 0;
     double heat = 0, worst = 0, energy_late = 0;
     const double j = pr.joules_per_count2[0], decay = exp(-1.0 / (RATE * 1.0));
@@ -78,7 +81,7 @@ static void a_coherent_storm_stays_within_the_rating(void **state)
             acc[2 * n] = (int64_t)llround(x * (double)Q30);
             acc[2 * n + 1] = 0;
             const double p = x * x * j * RATE; /* watts */
-            heat = heat * decay + p / RATE;   /* tau = 1 s: dt / tau = 1 / RATE */
+            heat = heat * decay + p / RATE;    /* tau = 1 s: dt / tau = 1 / RATE */
             if (heat > worst)
                 worst = heat;
             if (f >= 5u * RATE)
@@ -86,7 +89,8 @@ static void a_coherent_storm_stays_within_the_rating(void **state)
         }
         hd_protect_played(&pr, acc, period, 2, ns_of(f + period));
     }
-    print_message("worst %.9f answered %u skipped %llu late %.4f\n", worst, answered, (unsigned long long)pr.skipped, energy_late / 5);
+    print_message("worst %.9f answered %u skipped %llu late %.4f\n", worst, answered, (unsigned long long)pr.skipped,
+                  energy_late / 5);
     assert_true(worst <= 2.0); /* never above the rating, at any sample */
     assert_true(worst > 1.5);  /* and the budget used, not starved */
     assert_int_equal(touches, 1000);
@@ -141,8 +145,8 @@ static void bad_ratings_are_refused(void **state)
     (void)state;
     struct hd_protect pr;
     struct hd_exciter_rating good = {2, 4, 1};
-    const struct hd_exciter_rating bad[] = {{-1, 4, 1}, {NAN, 4, 1}, {2, 0, 1}, {2, -4, 1}, {2, 4, 0}, {2, INFINITY, 1},
-                                            {INFINITY, 4, 1}};
+    const struct hd_exciter_rating bad[] = {{-1, 4, 1}, {NAN, 4, 1},      {2, 0, 1},       {2, -4, 1},
+                                            {2, 4, 0},  {2, INFINITY, 1}, {INFINITY, 4, 1}};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         assert_int_equal(hd_protect_init(&pr, 1, &bad[i], 10.0, RATE), -EINVAL);
     assert_int_equal(hd_protect_init(&pr, 1, &good, 0.0, RATE), -EINVAL);

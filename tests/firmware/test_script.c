@@ -27,7 +27,9 @@ static void good_script(void **state)
     struct hd_script s;
     char err[HD_ERR_MAX];
     assert_int_equal(read_text("# a comment\n\nat 0 focus 7\n  at 4800 foci 1,4   # two fingers\n"
-                               "at 4800 focus 2\nat 9600 foci 3", &s, err), 0);
+                               "at 4800 focus 2\nat 9600 foci 3",
+                               &s, err),
+                     0);
     assert_int_equal(s.count, 4);
     assert_int_equal(s.events[0].frame, 0);
     assert_int_equal(s.events[0].focus_count, 1);
@@ -143,7 +145,8 @@ int main(void)
         cmocka_unit_test(many_events_grow),
         cmocka_unit_test(bad_lines_refused_with_their_number),
         cmocka_unit_test(long_line_refused_not_split),
-        cmocka_unit_test(nul_in_a_line_is_refused), cmocka_unit_test(missing_file_named),
+        cmocka_unit_test(nul_in_a_line_is_refused),
+        cmocka_unit_test(missing_file_named),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

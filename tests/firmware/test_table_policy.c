@@ -112,13 +112,13 @@ static double ratio_at(double celsius)
 /* ---- the daemon around the policy ---- */
 
 struct rig {
-    struct fw_table t;                /* the table file at start */
+    struct fw_table t; /* the table file at start */
     struct hd_board board;
     struct hd_engine engine;
     struct hd_table_policy tp;
     struct hd_program *first;
-    unsigned handed;                  /* calls of the hand-over hook */
-    const struct hd_program *last;    /* the program it was given */
+    unsigned handed;               /* calls of the hand-over hook */
+    const struct hd_program *last; /* the program it was given */
 };
 
 static void on_handed_over(void *ctx, const struct hd_program *p)
@@ -261,8 +261,7 @@ static void a_temperature_step_restretches(void **state)
     assert_int_equal(hd_table_policy_poll(&r.tp, 0.19), 0); /* not due: not read */
     assert_nothing_offered(&r, r.first);
     assert_int_equal(poll_due(&r, 0.2), 1);
-    assert_int_equal(log_count("panel temperature 33.00 C (the table is stretched for 23.00 C): stretching again"),
-                     1);
+    assert_int_equal(log_count("panel temperature 33.00 C (the table is stretched for 23.00 C): stretching again"), 1);
     const struct hd_program *hot = atomic_load(&r.engine.next);
     assert_non_null(hot);
     assert_ptr_equal(r.tp.latest, hot);
@@ -288,8 +287,7 @@ static void a_temperature_step_restretches(void **state)
     fw_table_write(&other, table_path);
     fw_write_text(sensor_path, "38000\n");
     assert_int_equal(poll_due(&r, 4.0), 1);
-    assert_int_equal(log_count("panel temperature 38.00 C (the table is stretched for 33.50 C): stretching again"),
-                     1);
+    assert_int_equal(log_count("panel temperature 38.00 C (the table is stretched for 33.50 C): stretching again"), 1);
     const struct hd_program *hotter = atomic_load(&r.engine.next);
     assert_non_null(hotter);
     assert_table_of(hotter, &r.t);

@@ -16,8 +16,8 @@
 #include <cmocka.h>
 
 /* 3 x 3 foci at 0.15, 0.35, 0.55 m (x and y), ids 100 + index, index = 3 row + column. */
-static const double foci_xy[18] = {0.15, 0.15, 0.35, 0.15, 0.55, 0.15, 0.15, 0.35, 0.35, 0.35,
-                                   0.55, 0.35, 0.15, 0.55, 0.35, 0.55, 0.55, 0.55};
+static const double foci_xy[18] = {0.15, 0.15, 0.35, 0.15, 0.55, 0.15, 0.15, 0.35, 0.35,
+                                   0.35, 0.55, 0.35, 0.15, 0.55, 0.35, 0.55, 0.55, 0.55};
 static const uint32_t foci_id[9] = {100, 101, 102, 103, 104, 105, 106, 107, 108};
 
 static struct hd_touch *make(double max_distance_m, bool multitouch)
@@ -81,7 +81,7 @@ static void maps(void **state)
     assert_true(fabs(x - 0.35) < 1e-12 && fabs(y - 0.35) < 1e-12);
     hd_touch_map_apply(&m, 4000, 3000, &x, &y); /* the fourth corner, not among the three */
     assert_true(fabs(x - 0.69) < 1e-12 && fabs(y - 0.01) < 1e-12);
-    hd_touch_map_apply(&m, 1000, 600, &x, &y);  /* 0.010 + 0.17, 0.690 - 0.136 */
+    hd_touch_map_apply(&m, 1000, 600, &x, &y); /* 0.010 + 0.17, 0.690 - 0.136 */
     assert_true(fabs(x - 0.18) < 1e-12 && fabs(y - 0.554) < 1e-12);
     /* A panel rotated by 90 degrees: panel x runs along plate y. */
     const double rot_plate[3][2] = {{0.0, 0.0}, {0.0, 0.4}, {0.3, 0.0}};

@@ -135,9 +135,13 @@ static void host_commands(void **state)
     assert_int_equal(hd_host_parse("", &ev, err, sizeof err), 0);
     assert_int_equal(hd_host_parse("   # comment", &ev, err, sizeof err), 0);
     static const char *const bad[] = {
-        "focus", "focus 1,2", "focus x", "focus -1", "foci 4294967296", "play 3", "at focus 3", "at -5 focus 3",
-        "at 12x focus 3", "at 5", "focus 3 4", "foci 1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17", "foci ,1",
-        "focus 99999999999999999999999999999999999999999999999999999999999999999999999999999"};
+        "focus",           "focus 1,2",
+        "focus x",         "focus -1",
+        "foci 4294967296", "play 3",
+        "at focus 3",      "at -5 focus 3",
+        "at 12x focus 3",  "at 5",
+        "focus 3 4",       "foci 1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17",
+        "foci ,1",         "focus 99999999999999999999999999999999999999999999999999999999999999999999999999999"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         err[0] = '\0';
         if (hd_host_parse(bad[i], &ev, err, sizeof err) != -EINVAL || !err[0] || strchr(err, '\n'))
@@ -183,16 +187,25 @@ static void log_escapes_what_is_not_text(void **state)
     static const char in[] = "ok \x1b]0;PWNED\x07 \xc3\xa9 \x80 \xc0\xaf \xed\xa0\x80 \\ \x7f\t\xe2\x82";
     size_t used = hd_text_escape(out, sizeof out, in, sizeof in - 1);
     assert_int_equal(used, sizeof in - 1);
-    assert_string_equal(out, "ok \\x1b]0;PWNED\\x07 \xc3\xa9 \\x80 \\xc0\\xaf \\xed\\xa0\\x80 \\\\ \\x7f\\x09\\xe2\\x82");
+    assert_string_equal(out,
+                        "ok \\x1b]0;PWNED\\x07 \xc3\xa9 \\x80 \\xc0\\xaf \\xed\\xa0\\x80 \\\\ \\x7f\\x09\\xe2\\x82");
     /* "\x1b" does not fit in 4 bytes + NUL after "ab": cut before it. */
     char small[6];
-    assert_int_equal(hd_text_escape(small, sizeof small, "ab\x1b" "c", 4), 2);
+    assert_int_equal(hd_text_escape(small, sizeof small,
+                                    "ab\x1b"
+                                    "c",
+                                    4),
+                     2);
     assert_string_equal(small, "ab");
     assert_int_equal(hd_text_escape(small, sizeof small, "\xf0\x9f\x98\x80z", 5), 5); /* U+1F600 kept whole */
     assert_string_equal(small, "\xf0\x9f\x98\x80z");
     /* The C1 controls are valid UTF-8 but control characters (CSI, NEL):
      * escaped; U+00A0 just above them is text. */
-    assert_int_equal(hd_text_escape(out, sizeof out, "a\xc2\x9b" "31m\xc2\x85\xc2\xa0", 10), 10);
+    assert_int_equal(hd_text_escape(out, sizeof out,
+                                    "a\xc2\x9b"
+                                    "31m\xc2\x85\xc2\xa0",
+                                    10),
+                     10);
     assert_string_equal(out, "a\\xc2\\x9b31m\\xc2\\x85\xc2\xa0");
 }
 
@@ -236,7 +249,7 @@ static void line_error_policy(void **state)
     assert_false(h.dead[0]);
     assert_int_equal(hd_line_health_read(&h, 0, -EIO), HD_LINE_DISABLED); /* the 100th in a row */
     assert_true(h.dead[0]);
-    assert_int_equal(hd_line_health_read(&h, 0, 0), HD_LINE_DISABLED);  /* stays disabled */
+    assert_int_equal(hd_line_health_read(&h, 0, 0), HD_LINE_DISABLED); /* stays disabled */
     /* Line 1 had its own errors interleaved: unaffected. */
     assert_int_equal(hd_line_health_read(&h, 1, -EIO), HD_LINE_GLITCH);
     assert_int_equal(hd_line_health_read(&h, 1, 0), HD_LINE_OK);
@@ -249,11 +262,16 @@ static void line_error_policy(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(lockout_and_bounce), cmocka_unit_test(active_high_and_edges),
-        cmocka_unit_test(simultaneous_lines), cmocka_unit_test(unknown_line),
-        cmocka_unit_test(no_lockout_and_clock_step), cmocka_unit_test(host_commands),
-        cmocka_unit_test(line_error_policy), cmocka_unit_test(host_lines_with_nul_and_long_words),
-        cmocka_unit_test(log_escapes_what_is_not_text), cmocka_unit_test(log_limit_lets_a_burst_through),
+        cmocka_unit_test(lockout_and_bounce),
+        cmocka_unit_test(active_high_and_edges),
+        cmocka_unit_test(simultaneous_lines),
+        cmocka_unit_test(unknown_line),
+        cmocka_unit_test(no_lockout_and_clock_step),
+        cmocka_unit_test(host_commands),
+        cmocka_unit_test(line_error_policy),
+        cmocka_unit_test(host_lines_with_nul_and_long_words),
+        cmocka_unit_test(log_escapes_what_is_not_text),
+        cmocka_unit_test(log_limit_lets_a_burst_through),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

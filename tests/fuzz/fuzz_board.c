@@ -24,10 +24,10 @@
 
 static const char board_path[] = "/nonexistent/hapticd-fuzz/board.ini";
 
-#define CHECK(cond)                                                                                            \
-    do {                                                                                                       \
-        if (!(cond))                                                                                           \
-            abort();                                                                                           \
+#define CHECK(cond)                                                                                                    \
+    do {                                                                                                               \
+        if (!(cond))                                                                                                   \
+            abort();                                                                                                   \
     } while (0)
 /* A char array holds a C string (NUL inside it). */
 #define TERMINATED(a) CHECK(memchr((a), '\0', sizeof(a)) != NULL)
@@ -157,9 +157,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     text[size] = '\0';
     struct hd_board *b = malloc(sizeof *b), *again = malloc(sizeof *again);
     char *err = malloc(HD_ERR_MAX), *err_again = malloc(HD_ERR_MAX);
-    memset(b, 0xA5, sizeof *b);       /* hd_board_defaults must clear whatever was there */
+    memset(b, 0xA5, sizeof *b); /* hd_board_defaults must clear whatever was there */
     memset(again, 0x5A, sizeof *again);
-    memset(err, 0xA5, HD_ERR_MAX);    /* a missing NUL shows */
+    memset(err, 0xA5, HD_ERR_MAX); /* a missing NUL shows */
     memset(err_again, 0xA5, HD_ERR_MAX);
 
     int rc = hd_board_parse_string(text, board_path, b, err);

@@ -119,7 +119,10 @@ static void check_line(const char *line, size_t len, int one_line)
     struct hd_event ev, small;
     int rc = parse(line, &ev, err_daemon, sizeof err_daemon, one_line);
     /* A truncated message changes nothing else. */
-    static const struct { char *err; unsigned size; } cut[] = {{err_13, sizeof err_13}, {err_1, sizeof err_1}};
+    static const struct {
+        char *err;
+        unsigned size;
+    } cut[] = {{err_13, sizeof err_13}, {err_1, sizeof err_1}};
     for (size_t i = 0; i < sizeof cut / sizeof *cut; i++) {
         if (parse(line, &small, cut[i].err, cut[i].size, one_line) != rc || (rc == 1 && !same_event(&small, &ev)))
             abort();

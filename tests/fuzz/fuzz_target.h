@@ -32,10 +32,10 @@ static void exercise_table(const uint8_t *data, size_t size)
             const bool ranged = haptic_table_gain_range(&t, f, &r) == 0;
             if (ranged != (t.range_offset != 0) || ranged != !isnan(haptic_table_range_threshold_m(&t)))
                 abort();
-            if (ranged && !(r.lo > 0 && r.lo <= HAPTIC_TABLE_RANGE_MAX_GAIN && r.hi > 0 &&
-                            (r.hi <= HAPTIC_TABLE_RANGE_MAX_GAIN || r.hi == INFINITY) &&
-                            haptic_table_range_threshold_m(&t) > 0 && haptic_table_range_scope(&t) >= 1 &&
-                            haptic_table_range_scope(&t) <= 2))
+            if (ranged &&
+                !(r.lo > 0 && r.lo <= HAPTIC_TABLE_RANGE_MAX_GAIN && r.hi > 0 &&
+                  (r.hi <= HAPTIC_TABLE_RANGE_MAX_GAIN || r.hi == INFINITY) && haptic_table_range_threshold_m(&t) > 0 &&
+                  haptic_table_range_scope(&t) >= 1 && haptic_table_range_scope(&t) <= 2))
                 abort();
             const int16_t *s = haptic_table_signal(&t, f);
             sink += s[0] + s[(size_t)t.samples_per_signal * t.channel_count - 1];

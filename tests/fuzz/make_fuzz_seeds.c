@@ -14,7 +14,10 @@ int main(int argc, char **argv)
         fprintf(stderr, "usage: make_fuzz_seeds DIR\n");
         return 2;
     }
-    const struct { uint16_t c; uint32_t k, n; } shapes[] = {{1, 1, 1}, {2, 2, 16}, {8, 3, 40}, {8, 9, 8}, {32, 2, 4}};
+    const struct {
+        uint16_t c;
+        uint32_t k, n;
+    } shapes[] = {{1, 1, 1}, {2, 2, 16}, {8, 3, 40}, {8, 9, 8}, {32, 2, 4}};
     for (size_t i = 0; i < sizeof shapes / sizeof *shapes; i++) {
         table_fixture fx;
         table_fixture_init(&fx, shapes[i].c, shapes[i].k, shapes[i].n, (uint32_t)i + 1);

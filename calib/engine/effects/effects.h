@@ -28,18 +28,18 @@ struct ExciterSpec {
     double moving_mass_kg = 0;
     double stiffness_n_m = 0;
     double damping_n_s_m = 0;
-    double force_factor_n_a = 1;   // Bl (N/A)
-    bool precompensate = true;     // drive signals pre-filtered by the inverse within the band
-    double max_boost_db = 20;      // cap of the inverse's gain below the band
+    double force_factor_n_a = 1; // Bl (N/A)
+    bool precompensate = true;   // drive signals pre-filtered by the inverse within the band
+    double max_boost_db = 20;    // cap of the inverse's gain below the band
 };
 
 struct EffectsSpec {
     // Frequency-dependent loss. The T60 values live in [plate.loss]; this key
     // only switches it: unset means "on iff [plate.loss] is given".
     std::optional<bool> loss;
-    bool thick_plate = false;  // Mindlin-type shear + rotary inertia
+    bool thick_plate = false; // Mindlin-type shear + rotary inertia
     std::optional<FingerSpec> finger;
     std::optional<ExciterSpec> exciter;
 };
 
-}  // namespace calib::engine::effects
+} // namespace calib::engine::effects

@@ -82,7 +82,8 @@ namespace {
 
 // Multiplies the spectrum of `signal` (zero-padded to >= 2x) by gain(T(f)).
 template <typename Gain>
-std::vector<double> filter_by_transfer(const std::vector<double> &signal, double rate_hz, const ExciterSpec &e, Gain gain)
+std::vector<double> filter_by_transfer(const std::vector<double> &signal, double rate_hz, const ExciterSpec &e,
+                                       Gain gain)
 {
     if (signal.empty())
         return {};
@@ -98,7 +99,7 @@ std::vector<double> filter_by_transfer(const std::vector<double> &signal, double
         const std::size_t bin = b <= nfft / 2 ? b : nfft - b;
         std::complex<double> t = exciter_transfer(e, double(bin) * rate_hz / double(nfft));
         if (b > nfft / 2)
-            t = std::conj(t);  // real signal: T(-f) = conj T(f)
+            t = std::conj(t); // real signal: T(-f) = conj T(f)
         spec[b] *= gain(t);
     }
     fft.inv(buf, spec);
@@ -106,7 +107,7 @@ std::vector<double> filter_by_transfer(const std::vector<double> &signal, double
     return buf;
 }
 
-}  // namespace
+} // namespace
 
 std::vector<double> blocked_force(const std::vector<double> &bl_i, double rate_hz, const ExciterSpec &e)
 {
@@ -133,4 +134,4 @@ std::vector<double> precompensate(const std::vector<double> &signal, double rate
                               [eps](std::complex<double> t) { return std::conj(t) / (std::norm(t) + eps * eps); });
 }
 
-}  // namespace calib::engine::effects
+} // namespace calib::engine::effects

@@ -24,12 +24,12 @@ namespace calib::engine::effects {
 // Blocked-force transfer T(j 2 pi f) = F / (Bl i), dimensionless.
 std::complex<double> exciter_transfer(const ExciterSpec &e, double f_hz);
 double exciter_resonance_hz(const ExciterSpec &e);
-double exciter_q(const ExciterSpec &e);  // infinite without damping
+double exciter_q(const ExciterSpec &e); // infinite without damping
 // Throws std::invalid_argument naming the parameter if one is not usable.
 void check_exciter(const ExciterSpec &e);
 
 class ExciterExtension final : public PointExtension {
-public:
+  public:
     ExciterExtension(const PointField &engine, double x_m, double y_m, const ExciterSpec &spec);
     // current_a[n] is the coil current during the n-th step after this call.
     void set_drive(std::vector<double> current_a);
@@ -38,7 +38,7 @@ public:
     // Force on the plate in every step since set_drive (N).
     const std::vector<double> &forces() const { return forces_; }
 
-private:
+  private:
     ExciterSpec spec_;
     double k_ = 0;
     PointTaps point_;
@@ -67,4 +67,4 @@ std::vector<double> blocked_force(const std::vector<double> &bl_i, double rate_h
 // approximation leaves out.
 double exciter_plate_loading(const ExciterSpec &e, double bending_stiffness, double mass_per_area, double f_hz);
 
-}  // namespace calib::engine::effects
+} // namespace calib::engine::effects

@@ -34,4 +34,4 @@ void FingerExtension::after_update(PointField &engine)
     energy_ = 0.5 * m * v * v + 0.5 * s * w_new * w;
 }
 
-}  // namespace calib::engine::effects
+} // namespace calib::engine::effects

@@ -19,21 +19,21 @@
 namespace calib::engine::effects {
 
 class FingerExtension final : public PointExtension {
-public:
+  public:
     // Throws std::invalid_argument if the point is off the plate or on fixed
     // nodes only, or for a spring the time step cannot take.
     FingerExtension(const PointField &engine, const FingerSpec &spec);
     void after_update(PointField &engine) override;
 
-    double last_force_n() const { return force_; }  // force on the plate in the last step (N)
+    double last_force_n() const { return force_; } // force on the plate in the last step (N)
     // Energy stored in the finger (J) at n+1/2: 1/2 m W_t^2 + 1/2 s W+ W.
     double energy() const { return energy_; }
 
-private:
+  private:
     FingerSpec spec_;
     double k_ = 0;
     PointTaps point_;
     double force_ = 0, energy_ = 0;
 };
 
-}  // namespace calib::engine::effects
+} // namespace calib::engine::effects

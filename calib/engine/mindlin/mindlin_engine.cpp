@@ -15,7 +15,7 @@ namespace {
 // Larger systems step on an OpenMP team (below it the fork costs more than the rows).
 constexpr Eigen::Index parallel_min_unknowns = 200000;
 
-}  // namespace
+} // namespace
 
 MindlinEngine::MindlinEngine(std::shared_ptr<const MindlinOperator> op, double time_step_s)
     : op_(std::move(op)), k_(time_step_s)
@@ -121,10 +121,7 @@ void MindlinEngine::set_state(const Eigen::VectorXd &current, const Eigen::Vecto
     prev_ = previous;
 }
 
-bool MindlinEngine::threaded() const
-{
-    return Eigen::Index(op_->unknown_count()) > parallel_min_unknowns;
-}
+bool MindlinEngine::threaded() const { return Eigen::Index(op_->unknown_count()) > parallel_min_unknowns; }
 
 PointTaps MindlinEngine::couple(double x_m, double y_m, const char *effect) const
 {
@@ -196,10 +193,11 @@ std::string MindlinEngine::non_finite_report() const
                         fmt("%.6g", i * g.h) + ", " + fmt("%.6g", j * g.h) + ") m";
         }
     if (where.empty())
-        where = "first at rotation unknown " + std::to_string(first - Eigen::Index(op_->w_count())) + " (w still finite)";
+        where =
+            "first at rotation unknown " + std::to_string(first - Eigen::Index(op_->w_count())) + " (w still finite)";
     return "non-finite value (" + fmt("%g", q[first]) + ") of the thick plate at step " + std::to_string(steps_ - 1) +
            " (t = " + fmt("%.6g", double(steps_) * k_) + " s), " + where + "; " + std::to_string(count) +
            " non-finite unknowns of " + std::to_string(q.size());
 }
 
-}  // namespace calib::engine::mindlin
+} // namespace calib::engine::mindlin

@@ -21,7 +21,7 @@
 namespace calib::engine::mindlin {
 
 class MindlinEngine final : public PointField {
-public:
+  public:
     using value_type = double;
 
     // Throws std::invalid_argument if time_step_s is not below the bound.
@@ -33,8 +33,8 @@ public:
     // Whether step() runs its rows on an OpenMP team.
     bool threaded() const;
 
-    std::size_t add_source(double x_m, double y_m);    // point force on w, bilinear
-    std::size_t add_receiver(double x_m, double y_m);  // w, same weights
+    std::size_t add_source(double x_m, double y_m);   // point force on w, bilinear
+    std::size_t add_receiver(double x_m, double y_m); // w, same weights
     void set_source_force(std::size_t s, double force_n) { sources_[s].force = force_n; }
     double receiver_value(std::size_t r) const;
 
@@ -46,7 +46,7 @@ public:
     void apply(const PointTaps &point, double force_n) override;
 
     void step();
-    double energy() const;  // J, at n+1/2 (the plate's; a finger's own energy is not included)
+    double energy() const; // J, at n+1/2 (the plate's; a finger's own energy is not included)
 
     // w on the node grid, row-major (j, i), 0 at held nodes.
     std::vector<double> displacement() const;
@@ -59,7 +59,7 @@ public:
     const Eigen::VectorXd &state() const { return cur_; }
     void set_state(const Eigen::VectorXd &current, const Eigen::VectorXd &previous);
 
-private:
+  private:
     struct Tap {
         std::vector<Eigen::Index> index;
         std::vector<double> weight;
@@ -70,10 +70,10 @@ private:
     std::shared_ptr<const MindlinOperator> op_;
     double k_ = 0;
     std::size_t steps_ = 0;
-    MindlinOperator::SparseMatrix update_;  // k^2 M^-1 K
+    MindlinOperator::SparseMatrix update_; // k^2 M^-1 K
     Eigen::VectorXd prev_, cur_, next_;
     std::vector<Tap> sources_, receivers_;
     std::vector<std::unique_ptr<PointExtension>> extensions_;
 };
 
-}  // namespace calib::engine::mindlin
+} // namespace calib::engine::mindlin

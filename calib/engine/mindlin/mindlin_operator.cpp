@@ -14,12 +14,9 @@ namespace {
 // Ghost sign of the normal rotation across an edge: a simply supported edge
 // has no moment (symmetric ghost: the normal curvature vanishes), a clamped
 // one no rotation (antisymmetric ghost).
-double ghost_sign(EdgeKind e)
-{
-    return e == EdgeKind::clamped ? -1.0 : 1.0;
-}
+double ghost_sign(EdgeKind e) { return e == EdgeKind::clamped ? -1.0 : 1.0; }
 
-}  // namespace
+} // namespace
 
 MindlinOperator::MindlinOperator(const PlateParams &params, const Grid &grid, physics::MindlinShear shear)
     : params_(params), grid_(grid)
@@ -49,12 +46,12 @@ MindlinOperator::MindlinOperator(const PlateParams &params, const Grid &grid, ph
             w_node_.push_back(grid.node(i, j));
         }
     const std::ptrdiff_t nw = n;
-    psix_of_.assign(std::size_t(nx) * std::size_t(ny + 1), -1);  // (i, j), i < nx
+    psix_of_.assign(std::size_t(nx) * std::size_t(ny + 1), -1); // (i, j), i < nx
     for (int j = 1; j < ny; ++j)
         for (int i = 0; i < nx; ++i)
             psix_of_[std::size_t(j) * std::size_t(nx) + std::size_t(i)] = n++;
     const std::ptrdiff_t npx = n - nw;
-    psiy_of_.assign(std::size_t(nx + 1) * std::size_t(ny), -1);  // (i, j), j < ny
+    psiy_of_.assign(std::size_t(nx + 1) * std::size_t(ny), -1); // (i, j), j < ny
     for (int j = 0; j < ny; ++j)
         for (int i = 1; i < nx; ++i)
             psiy_of_[std::size_t(j) * std::size_t(nx + 1) + std::size_t(i)] = n++;
@@ -172,9 +169,6 @@ std::ptrdiff_t MindlinOperator::psi_y_index(int i, int j) const
     return psiy_of_[std::size_t(j) * std::size_t(grid_.nx + 1) + std::size_t(i)];
 }
 
-double MindlinOperator::max_time_step() const
-{
-    return 2.0 / std::sqrt(lambda_max());
-}
+double MindlinOperator::max_time_step() const { return 2.0 / std::sqrt(lambda_max()); }
 
-}  // namespace calib::engine::mindlin
+} // namespace calib::engine::mindlin

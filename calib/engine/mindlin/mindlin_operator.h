@@ -44,7 +44,7 @@
 namespace calib::engine::mindlin {
 
 class MindlinOperator {
-public:
+  public:
     using SparseMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor>;
 
     // Assembles K and M and finds the stability bound (Lanczos, on this
@@ -56,7 +56,7 @@ public:
 
     const PlateParams &params() const { return params_; }
     const Grid &grid() const { return grid_; }
-    double shear_stiffness() const { return shear_; }  // k_s^2 G d (N/m)
+    double shear_stiffness() const { return shear_; } // k_s^2 G d (N/m)
 
     // Unknowns: [w (interior nodes) | psi_x | psi_y].
     std::size_t unknown_count() const { return std::size_t(mass_.size()); }
@@ -68,10 +68,10 @@ public:
 
     const Eigen::VectorXd &mass() const { return mass_; }
     const SparseMatrix &stiffness() const { return stiffness_; }
-    double lambda_max() const { return lambda_; }  // of M^-1 K
-    double max_time_step() const;                  // 2 / sqrt(lambda_max)
+    double lambda_max() const { return lambda_; } // of M^-1 K
+    double max_time_step() const;                 // 2 / sqrt(lambda_max)
 
-private:
+  private:
     PlateParams params_;
     Grid grid_;
     double shear_ = 0;
@@ -82,4 +82,4 @@ private:
     double lambda_ = 0;
 };
 
-}  // namespace calib::engine::mindlin
+} // namespace calib::engine::mindlin

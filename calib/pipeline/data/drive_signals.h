@@ -13,9 +13,9 @@ struct DriveSignals {
     unsigned channels = 0;
     size_t frames = 0;
     double rate_hz = 0;
-    std::vector<double> normalized;   // [frame][channel], peak |value| = 1 (before dither)
-    double level = 1.0;               // playback level: samples = level * normalized * 32767 + dither
-    std::vector<int16_t> samples;     // [frame][channel]
+    std::vector<double> normalized; // [frame][channel], peak |value| = 1 (before dither)
+    double level = 1.0;             // playback level: samples = level * normalized * 32767 + dither
+    std::vector<int16_t> samples;   // [frame][channel]
     // counts = gain * (reversed, resampled recording): a drive of s counts at an
     // exciter is s / gain of the recorded quantity (m per N of pulse force).
     double gain = 0;
@@ -34,4 +34,4 @@ inline std::vector<std::vector<int16_t>> stored_samples(const std::vector<DriveS
     return s;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

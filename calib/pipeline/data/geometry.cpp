@@ -8,4 +8,4 @@ bool Band::allows(Point p) const
            p.y_m <= plate_y_m - frame_margin_m && !active_area.contains(p, clearance_m);
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

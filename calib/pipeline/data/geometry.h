@@ -29,4 +29,4 @@ struct Band {
     bool allows(Point p) const;
 };
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -18,7 +18,7 @@ bool transfer_holds(const CalibrationInput &in) { return !in.effects.finger; }
 engine::SimulationOptions single_core_options(const CalibrationInput &in)
 {
     engine::SimulationOptions o = in.simulation;
-    o.engine.threads = 1;  // the simulations run in parallel; each keeps to one core
+    o.engine.threads = 1; // the simulations run in parallel; each keeps to one core
     o.thick_plate = in.effects.thick_plate;
     return o;
 }
@@ -36,9 +36,9 @@ Band band_of(const CalibrationInput &in)
 
 std::string scene_hash(const std::string &bytes)
 {
-    const uLong c = crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef *>(bytes.data()),
-                          static_cast<uInt>(bytes.size()));
+    const uLong c =
+        crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef *>(bytes.data()), static_cast<uInt>(bytes.size()));
     return io::fmt("crc32:%08lx", static_cast<unsigned long>(c));
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -23,7 +23,7 @@ namespace calib::pipeline {
 
 struct CalibrationInput {
     std::string scene_name;
-    std::string scene_hash;  // "crc32:..." of the scene file bytes
+    std::string scene_hash; // "crc32:..." of the scene file bytes
     std::shared_ptr<const engine::PlateOperator> plate;
     engine::SimulationOptions simulation;
     ActiveAreaSpec active;
@@ -31,9 +31,9 @@ struct CalibrationInput {
     FociSpec foci;
     PulseSpec pulse;
     CalibrationSpec calibration;
-    engine::effects::EffectsSpec effects;  // [effects]; the exciter model acts here (docs/effects.md)
-    std::optional<ToleranceSpec> tolerance;  // [tolerance]: verify over the box (docs/robustness.md)
-    std::optional<RobustSpec> robust;        // [calibration] robust: design over an ensemble
+    engine::effects::EffectsSpec effects;   // [effects]; the exciter model acts here (docs/effects.md)
+    std::optional<ToleranceSpec> tolerance; // [tolerance]: verify over the box (docs/robustness.md)
+    std::optional<RobustSpec> robust;       // [calibration] robust: design over an ensemble
     // The radius beyond which a focus's surroundings are judged (the whole
     // area, the other foci, the control points): lambda/2 at the pulse
     // centre on the scene's plate (0: from `plate`). A perturbed plate
@@ -41,7 +41,7 @@ struct CalibrationInput {
     // held to the same area in millimetres: a panel whose waves are 0.75 %
     // slower is not judged 0.6 mm closer to the focus.
     double lambda_half_m = 0;
-    double plate_temperature_c = 23;  // [plate] temperature_c: the table's panel section
+    double plate_temperature_c = 23; // [plate] temperature_c: the table's panel section
 };
 
 // Progress of long stages (stage name, items done, items total).
@@ -66,4 +66,4 @@ Band band_of(const CalibrationInput &in);
 // scene a table came from (provenance, not security).
 std::string scene_hash(const std::string &bytes);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

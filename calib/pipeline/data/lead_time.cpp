@@ -15,7 +15,7 @@ namespace {
 
 std::string ms(double s) { return io::fmt("%.1f ms", s * 1e3); }
 
-}  // namespace
+} // namespace
 
 double pulse_peak_offset_s(const PulseSpec &p, double rate_hz)
 {
@@ -71,8 +71,8 @@ void check_lead_time(const CalibrationInput &in, const std::vector<Point> &sites
     const double lead = *in.calibration.lead_time_s;
     const double crossing = crossing_time_s(in, sites);
     if (lead < crossing)
-        throw std::invalid_argument("calibration.lead_time_s: " + ms(lead) +
-                                    " is shorter than the plate crossing (" + ms(crossing) +
+        throw std::invalid_argument("calibration.lead_time_s: " + ms(lead) + " is shorter than the plate crossing (" +
+                                    ms(crossing) +
                                     " from the farthest exciter site to the farthest focus at the A0 group velocity)");
     if (kept_window_s(in) > in.calibration.window_s)
         throw std::invalid_argument("calibration.lead_time_s: " + ms(lead) + " and the pulse's second half (" +
@@ -80,4 +80,4 @@ void check_lead_time(const CalibrationInput &in, const std::vector<Point> &sites
                                     ms(in.calibration.window_s) + ")");
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -40,4 +40,4 @@ double crossing_time_s(const CalibrationInput &in, const std::vector<Point> &sit
 // window does not fit in calibration.window_s.
 void check_lead_time(const CalibrationInput &in, const std::vector<Point> &sites);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -13,9 +13,9 @@ namespace calib::pipeline {
 
 // [active_area]: the transparent touch area and the frame.
 struct ActiveAreaSpec {
-    Rect area;                    // x0, y0, x1, y1 (m), plate origin at the lower-left corner
-    double frame_margin_m = 0.0;  // no exciter closer than this to the plate edge
-    double clearance_m = 0.0;     // no exciter closer than this to the active area
+    Rect area;                   // x0, y0, x1, y1 (m), plate origin at the lower-left corner
+    double frame_margin_m = 0.0; // no exciter closer than this to the plate edge
+    double clearance_m = 0.0;    // no exciter closer than this to the active area
 };
 
 enum class PlacementMode { random, regular, fixed };
@@ -28,9 +28,9 @@ struct ExcitersSpec {
     PlacementCriterion criterion = PlacementCriterion::contrast;
     uint64_t seed = 1;
     double min_spacing_m = 0.05;
-    double force_full_scale_n = 1.0;       // force an exciter applies at digital full scale
-    std::vector<Point> positions;          // placement = "fixed"
-    std::optional<double> site_spacing_m;  // candidate lattice; default lambda/8 at the pulse centre
+    double force_full_scale_n = 1.0;      // force an exciter applies at digital full scale
+    std::vector<Point> positions;         // placement = "fixed"
+    std::optional<double> site_spacing_m; // candidate lattice; default lambda/8 at the pulse centre
     unsigned restarts = 8;
     unsigned iterations = 1500;
     // Rounds of the search by the verdict (pipeline/placement_verdict.h): each adds the
@@ -51,8 +51,8 @@ struct FocusPoint {
     Point at;
 };
 struct FociSpec {
-    std::vector<FocusPoint> points;  // from grid = [nx, ny] or pitch_m inside the active area, or explicit points
-    std::optional<double> pitch_m;   // the square grid's pitch (pitch_m = ...)
+    std::vector<FocusPoint> points; // from grid = [nx, ny] or pitch_m inside the active area, or explicit points
+    std::optional<double> pitch_m;  // the square grid's pitch (pitch_m = ...)
 };
 
 // [calibration] method: how the drives are designed from the transfer matrix
@@ -62,14 +62,14 @@ enum class DriveMethod { time_reversal, inverse_filter };
 
 // [calibration]
 struct CalibrationSpec {
-    double window_s = 0.2;            // recording window after the pulse starts at a focus
-    double truncate_fraction = 0.3;   // the seed's 30 %
+    double window_s = 0.2;          // recording window after the pulse starts at a focus
+    double truncate_fraction = 0.3; // the seed's 30 %
     double output_rate_hz = 48000;
     std::string sample_format = "s16";
-    double threshold_m = 5e-6;        // perception threshold (the seed's 5 um)
+    double threshold_m = 5e-6; // perception threshold (the seed's 5 um)
     bool dither = true;
-    std::optional<double> accuracy;   // target relative phase-velocity error (docs/ACCURACY.md)
-    double verify_tail_s = 0.1;       // verification runs this long after the drive ends
+    std::optional<double> accuracy; // target relative phase-velocity error (docs/ACCURACY.md)
+    double verify_tail_s = 0.1;     // verification runs this long after the drive ends
     DriveMethod method = DriveMethod::time_reversal;
     // Playback start to the focal peak (s); unset: where time reversal puts it
     // with the kept window truncate_fraction x window_s (pipeline/data/lead_time.h).
@@ -79,4 +79,4 @@ struct CalibrationSpec {
     double regularization = 1e-4;
 };
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -61,4 +61,4 @@ VerdictSummary summarize_verdict(const std::vector<FocusMetrics> &foci)
     return s;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -24,14 +24,14 @@ inline double ratio_db(double a, double b) { return 20 * std::log10(a / std::max
 struct FocusMetrics {
     uint32_t id = 0;
     Point at;
-    double peak_m = 0;              // max |w| at the focus while its stored signals play
+    double peak_m = 0; // max |w| at the focus while its stored signals play
     // Playback start to the focal peak: the lead time (what a person waits,
     // before device latency; data/lead_time.h). The table stores it per
     // focus; metrics.json writes it as peak_time_s and lead_time_s.
     double lead_time_s = 0;
-    double max_other_foci_m = 0;    // max |w| at every other focus farther than lambda/2, at all times
-    double other_foci_contrast_db = 0;  // 20 log10(peak / max_other)
-    double spot_diameter_m = 0;     // circle of the area around the focus where |w| >= peak / 2
+    double max_other_foci_m = 0;       // max |w| at every other focus farther than lambda/2, at all times
+    double other_foci_contrast_db = 0; // 20 log10(peak / max_other)
+    double spot_diameter_m = 0;        // circle of the area around the focus where |w| >= peak / 2
     // At the focus instant: the largest |w| on the plate farther than lambda/2
     // from the focus, and the focus's margin over it (what the seed's Fig. 4 shows).
     double max_elsewhere_m = 0;
@@ -47,11 +47,11 @@ struct FocusMetrics {
     Point perceived_offset_m;
     double perceived_offset_distance_m = 0;
     double area_above_threshold_m2 = 0;
-    double lambda_half_m = 0;       // half the A0 wavelength at the pulse centre
+    double lambda_half_m = 0; // half the A0 wavelength at the pulse centre
     bool crosses_threshold = false;
     bool others_below_threshold = false;
-    bool whole_area_below_threshold = false;  // nowhere beyond lambda/2 reaches the threshold
-    bool whole_area = false;        // the whole-area figures were measured
+    bool whole_area_below_threshold = false; // nowhere beyond lambda/2 reaches the threshold
+    bool whole_area = false;                 // the whole-area figures were measured
     // The stored signals' sound on axis 0.5 m above the plate centre (baffled
     // plate, verification/radiation.h): A-weighted exposure level L_AE (dB re
     // 20 uPa^2 s); measured with the whole-area figures (H with its lattice).
@@ -95,7 +95,7 @@ struct FocusMetrics {
 struct VerdictSummary {
     std::size_t passing = 0, total = 0;
     std::size_t worst = 0;
-    double worst_margin_db = 0;  // foci[worst].margin_db()
+    double worst_margin_db = 0; // foci[worst].margin_db()
     bool all_pass() const { return passing == total; }
 };
 VerdictSummary summarize_verdict(const std::vector<FocusMetrics> &foci);
@@ -117,7 +117,7 @@ struct Verification {
     // snapshots[f]: |w| field at focus f's peak on the grid below (row-major):
     // the observation lattice of H, or the plate grid on the forward path.
     std::vector<std::vector<float>> snapshots;
-    int grid_nx = 0, grid_ny = 0;   // intervals per axis (points - 1)
+    int grid_nx = 0, grid_ny = 0; // intervals per axis (points - 1)
     double grid_h_m = 0;
     // Whole-area data for the report (H path only; empty otherwise):
     // max_abs[f][n]: max over all times of |w| at lattice point n (same grid as
@@ -133,4 +133,4 @@ struct Verification {
     std::vector<std::vector<float>> frames;
 };
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -87,8 +87,7 @@ BlockLevinson::BlockLevinson(std::size_t C, std::size_t J)
     : C_(C), J_(J), U_(Eigen::Index(C * J), Eigen::Index(C * J)), row_(Eigen::Index(C), Eigen::Index(C * J)),
       top_(Eigen::Index(C), Eigen::Index(C * J)), F_(Eigen::Index(C * J), Eigen::Index(C)),
       B_(Eigen::Index(C * J), Eigen::Index(C)), f_(Eigen::Index(C * J), Eigen::Index(C))
-{
-}
+{}
 
 bool BlockLevinson::factor(const ToeplitzOperator &G)
 {
@@ -173,4 +172,4 @@ bool toeplitz_solve(const ToeplitzOperator &G, BlockLevinson &lev, const Eigen::
     return false;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -24,8 +24,8 @@ inline std::size_t lag_count(std::size_t J) { return 2 * J - 1; }
 // `fft` of at least 3 J - 2 points, so the linear convolution fits): what the
 // Lanczos iteration and the residuals need without forming G.
 class ToeplitzOperator {
-public:
-    using Scalar = double;  // for Spectra
+  public:
+    using Scalar = double; // for Spectra
     // R as summed_correlations gives it: the data part.
     ToeplitzOperator(const Eigen::VectorXd &R, std::size_t C, std::size_t J, RealFft &fft);
     // Adds beta times the penalty's lags (penalty_lags) to every channel's own.
@@ -33,19 +33,19 @@ public:
 
     Eigen::Index rows() const { return Eigen::Index(C_ * J_); }
     Eigen::Index cols() const { return rows(); }
-    void perform_op(const double *x, double *y) const;  // y = G x
+    void perform_op(const double *x, double *y) const; // y = G x
     // a_cd[k], |k| < J.
     double lag(std::size_t c, std::size_t d, long k) const { return a_(Eigen::Index(c * C_ + d), k + long(J_) - 1); }
     // The largest row sum of |G| (its infinity norm).
     double norm_inf() const;
 
-private:
+  private:
     void transform(std::size_t cd);
 
     std::size_t C_, J_;
     RealFft &fft_;
-    Eigen::MatrixXd a_;                                          // [c C + d][k + J - 1]
-    Eigen::Matrix<std::complex<double>, Eigen::Dynamic, Eigen::Dynamic> A_;  // [c C + d][bin]: their spectra
+    Eigen::MatrixXd a_;                                                     // [c C + d][k + J - 1]
+    Eigen::Matrix<std::complex<double>, Eigen::Dynamic, Eigen::Dynamic> A_; // [c C + d][bin]: their spectra
 };
 
 // The inverse of the regularised normal matrix by its block Toeplitz
@@ -59,18 +59,18 @@ private:
 // so block diagonal): 2 C^3 J^2 products against the (C J)^3 / 3 of a
 // Cholesky factor, 1/20 for 8 exciters and J = 172.
 class BlockLevinson {
-public:
+  public:
     BlockLevinson(std::size_t C, std::size_t J);
     // Factors G (its lags); false when an E^k is not positive definite.
     bool factor(const ToeplitzOperator &G);
     // G^{-1} r in G's ordering (channel first).
     Eigen::VectorXd solve(const Eigen::VectorXd &r) const;
 
-private:
+  private:
     std::size_t C_, J_;
-    Eigen::MatrixXd U_;                             // time first; only its strict upper triangle is read
-    std::vector<Eigen::LLT<Eigen::MatrixXd>> E_;  // E_b^k
-    Eigen::MatrixXd row_, top_, F_, B_, f_;        // the factorisation's room, kept for the next one
+    Eigen::MatrixXd U_;                          // time first; only its strict upper triangle is read
+    std::vector<Eigen::LLT<Eigen::MatrixXd>> E_; // E_b^k
+    Eigen::MatrixXd row_, top_, F_, B_, f_;      // the factorisation's room, kept for the next one
 };
 
 // G x = b by BlockLevinson and iterative refinement until the residual is as
@@ -80,4 +80,4 @@ private:
 // or does not get there in a few passes, and the caller factors G.
 bool toeplitz_solve(const ToeplitzOperator &G, BlockLevinson &lev, const Eigen::VectorXd &b, Eigen::VectorXd &x);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

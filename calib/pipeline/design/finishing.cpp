@@ -54,7 +54,7 @@ DriveSignals finish_drive_signals(std::vector<std::vector<double>> drive, double
     }
     if (!(peak > 0) || !std::isfinite(peak))
         throw std::invalid_argument("all recordings are zero: no exciter site receives the pulse from this focus");
-    if (!std::isfinite(32767.0 / peak))  // a denormal peak: as good as zero
+    if (!std::isfinite(32767.0 / peak)) // a denormal peak: as good as zero
         throw std::invalid_argument("the recordings' peak (" + std::to_string(peak) +
                                     ") is too small to normalize: no exciter site receives the pulse");
 
@@ -77,7 +77,7 @@ void requantize(DriveSignals &d, double level, const TimeReversalOptions &o)
     // TPDF dither from a seeded generator: soxr's own dither is seeded from the
     // clock, which would make two calibrations of one scene differ.
     std::mt19937_64 rng(o.dither_seed);
-    const double to_unit = 1.0 / 18446744073709551616.0;  // 2^-64
+    const double to_unit = 1.0 / 18446744073709551616.0; // 2^-64
     for (size_t i = 0; i < d.normalized.size(); i++) {
         double counts = d.normalized[i] * level * 32767.0;
         if (o.dither)
@@ -111,4 +111,4 @@ void precompensate_for_exciter(DriveSignals &d, const engine::effects::ExciterSp
     requantize(d, d.level, tro);
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

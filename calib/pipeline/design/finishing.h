@@ -13,10 +13,10 @@
 namespace calib::pipeline {
 
 struct TimeReversalOptions {
-    double truncate_fraction = 0.3;   // of the recording window (the seed's 30 %; time reversal only)
+    double truncate_fraction = 0.3; // of the recording window (the seed's 30 %; time reversal only)
     double output_rate_hz = 48000.0;
-    double taper_s = 0.002;           // raised-cosine fade at both ends (no click)
-    bool dither = true;               // TPDF, +-1 LSB, seeded (reproducible)
+    double taper_s = 0.002; // raised-cosine fade at both ends (no click)
+    bool dither = true;     // TPDF, +-1 LSB, seeded (reproducible)
     uint64_t dither_seed = 1;
 };
 
@@ -45,4 +45,4 @@ void requantize(DriveSignals &d, double level, const TimeReversalOptions &option
 // as calibrate() does to every table's drives.
 void precompensate_for_exciter(DriveSignals &d, const engine::effects::ExciterSpec &e, const TimeReversalOptions &tro);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -206,7 +206,7 @@ InverseFilterDesign design_of(const Eigen::VectorXd &x, double lambda_max, doubl
     out.drive.assign(C, std::vector<double>(J));
     for (std::size_t c = 0; c < C; c++)
         for (std::size_t j = 0; j < J; j++)
-            out.drive[c][j] = x(Eigen::Index(c * J + j)) * rate_hz;  // w = (1/R) h * s
+            out.drive[c][j] = x(Eigen::Index(c * J + j)) * rate_hz; // w = (1/R) h * s
     return out;
 }
 
@@ -223,9 +223,9 @@ InverseFilterDesign solve_design(Eigen::MatrixXd &G, const Eigen::VectorXd &b, c
 // The same design from R (summed_correlations) without forming G: lambda_max
 // and the solve through ToeplitzOperator and BlockLevinson, G formed and
 // factored only where those do not get there (then as solve_design).
-InverseFilterDesign toeplitz_design(const Eigen::VectorXd &R, const Eigen::VectorXd &b,
-                                    const std::vector<double> &pen, double regularization, std::size_t C,
-                                    std::size_t J, double rate_hz, RealFft &fft, BlockLevinson &lev)
+InverseFilterDesign toeplitz_design(const Eigen::VectorXd &R, const Eigen::VectorXd &b, const std::vector<double> &pen,
+                                    double regularization, std::size_t C, std::size_t J, double rate_hz, RealFft &fft,
+                                    BlockLevinson &lev)
 {
     if (C * J <= 8) {
         Eigen::MatrixXd G = normal_matrix(R, C, J);
@@ -303,7 +303,7 @@ void check_plates(const Plates &plates)
                 "inverse filter: the stacked plates differ in channels, samples, rate or points");
 }
 
-}  // namespace
+} // namespace
 
 InverseFilterDesign design_inverse_filter(const TransferMatrix &H, const InverseFilterProblem &p,
                                           const InverseFilterOptions &o)
@@ -339,8 +339,7 @@ InverseFilterDesign design_inverse_filter(const Plates &plates, const InverseFil
         weights.push_back(p.control_weights.empty() ? 1.0 : p.control_weights[i]);
     }
     Eigen::MatrixXd G = normal_matrix(summed_correlations(plates, points, weights, J), C, J);
-    return solve_design(G, focus_rhs(plates, p, o), penalty_lags(o, H.rate_hz, J), o.regularization, C, J,
-                        H.rate_hz);
+    return solve_design(G, focus_rhs(plates, p, o), penalty_lags(o, H.rate_hz, J), o.regularization, C, J, H.rate_hz);
 }
 
 std::vector<std::size_t> control_points(const CalibrationInput &in, const TransferMatrix &H, std::size_t f)
@@ -412,7 +411,7 @@ InverseFilterDesign minimax_design(const Plates &plates, InverseFilterProblem p,
 }
 
 std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H,
-                                               const ProgressFn &progress)
+                                                 const ProgressFn &progress)
 {
     return inverse_filter_signals(in, Plates{&H}, progress);
 }
@@ -478,19 +477,19 @@ std::vector<std::size_t> scene_points(const CalibrationInput &in, const Transfer
 // (the sums taken in another order, another backward-stable solve);
 // test_inverse_filter_shared checks it.
 class SharedDesigns {
-public:
+  public:
     SharedDesigns(const Plates &plates, const std::vector<std::size_t> &points, std::size_t drive_samples);
     // minimax_design(plates, p, o), p's points among those served.
     InverseFilterDesign minimax(InverseFilterProblem p, const InverseFilterOptions &o) const;
 
-private:
+  private:
     Eigen::Index column(std::size_t point) const;
 
     const Plates &plates_;
     std::size_t J_;
-    std::vector<std::ptrdiff_t> column_;            // per point of H, its column of Rp (-1: not served)
-    Eigen::MatrixXd Rp_;                            // [pair, lag][point], as R with that point alone at weight 1
-    std::vector<std::unique_ptr<Playback>> play_;  // per plate, the served points
+    std::vector<std::ptrdiff_t> column_;          // per point of H, its column of Rp (-1: not served)
+    Eigen::MatrixXd Rp_;                          // [pair, lag][point], as R with that point alone at weight 1
+    std::vector<std::unique_ptr<Playback>> play_; // per plate, the served points
 };
 
 SharedDesigns::SharedDesigns(const Plates &plates, const std::vector<std::size_t> &points, std::size_t J)
@@ -557,7 +556,7 @@ InverseFilterDesign SharedDesigns::minimax(InverseFilterProblem p, const Inverse
         throw std::invalid_argument("inverse filter: regularization must be >= 0 and the focus weight > 0");
     if (!p.control_weights.empty() && p.control_weights.size() != p.control.size())
         throw std::invalid_argument("inverse filter: one weight per control point");
-    std::vector<std::size_t> which;  // the control points then the foci, as columns
+    std::vector<std::size_t> which; // the control points then the foci, as columns
     for (std::size_t q : p.control)
         which.push_back(std::size_t(column(q)));
     for (std::size_t f : p.foci)
@@ -632,17 +631,16 @@ std::vector<InverseFilterDesign> scene_designs(const CalibrationInput &in, const
 
 // The drive of a scene's design at full scale, finished with the scene's
 // options for drive `drive` (finishing.h drive_options).
-DriveSignals scene_signals(const CalibrationInput &in, const TransferMatrix &H, InverseFilterDesign d,
-                           uint64_t drive)
+DriveSignals scene_signals(const CalibrationInput &in, const TransferMatrix &H, InverseFilterDesign d, uint64_t drive)
 {
     // The focus instant from playback start, on H's sample grid (focus_target).
-    const double delay = double(std::lround((focus_centre_s(in) - pulse_duration_s(in.pulse) / 2) * H.rate_hz)) /
-                             H.rate_hz +
-                         pulse_duration_s(in.pulse) / 2;
+    const double delay =
+        double(std::lround((focus_centre_s(in) - pulse_duration_s(in.pulse) / 2) * H.rate_hz)) / H.rate_hz +
+        pulse_duration_s(in.pulse) / 2;
     return finish_drive_signals(std::move(d.drive), H.rate_hz, delay, drive_options(in, drive));
 }
 
-}  // namespace
+} // namespace
 
 std::vector<InverseFilterDesign> inverse_filter_designs(const CalibrationInput &in, const Plates &plates,
                                                         const ProgressFn &progress, bool shared)
@@ -686,7 +684,7 @@ DriveSignals joint_inverse_filter_signals(const CalibrationInput &in, const Tran
     InverseFilterDesign design = scene_designs(in, Plates{&H}, {set}, {"foci " + ids}, true, {}).front();
     try {
         DriveSignals d = scene_signals(in, H, std::move(design), joint_drive);
-        if (in.effects.exciter && in.effects.exciter->precompensate)  // as the table's drives
+        if (in.effects.exciter && in.effects.exciter->precompensate) // as the table's drives
             precompensate_for_exciter(d, *in.effects.exciter, drive_options(in, joint_drive));
         return d;
     } catch (const std::exception &e) {
@@ -694,4 +692,4 @@ DriveSignals joint_inverse_filter_signals(const CalibrationInput &in, const Tran
     }
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

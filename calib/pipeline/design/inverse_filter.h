@@ -97,8 +97,8 @@ struct InverseFilterProblem {
 };
 
 struct InverseFilterDesign {
-    std::vector<std::vector<double>> drive;  // [c][j], force (N) at H's rate, j < J
-    double lambda_max = 0;                   // of the data part of G (summed over the plates)
+    std::vector<std::vector<double>> drive; // [c][j], force (N) at H's rate, j < J
+    double lambda_max = 0;                  // of the data part of G (summed over the plates)
     double beta = 0;
 };
 
@@ -166,4 +166,4 @@ std::vector<InverseFilterDesign> inverse_filter_designs(const CalibrationInput &
 DriveSignals joint_inverse_filter_signals(const CalibrationInput &in, const TransferMatrix &H,
                                           const std::vector<std::size_t> &set);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

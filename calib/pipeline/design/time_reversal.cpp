@@ -27,7 +27,7 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &rec, dou
         std::vector<double> &s = drive[c];
         s.resize(keep);
         for (size_t i = 0; i < keep; i++) {
-            const double v = rec[c][keep - 1 - i];  // reversed
+            const double v = rec[c][keep - 1 - i]; // reversed
             if (!std::isfinite(v))
                 throw std::invalid_argument("recording of channel " + std::to_string(c) + " is not finite at sample " +
                                             std::to_string(keep - 1 - i));
@@ -35,8 +35,8 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &rec, dou
         }
     }
     // Sample i of the output is recording sample keep-1-i: time reverses about (keep-1)/rate.
-    return finish_drive_signals(std::move(drive), sim_rate_hz, static_cast<double>(keep - 1) / sim_rate_hz - pulse_duration_s / 2,
-                                o);
+    return finish_drive_signals(std::move(drive), sim_rate_hz,
+                                static_cast<double>(keep - 1) / sim_rate_hz - pulse_duration_s / 2, o);
 }
 
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H)
@@ -59,7 +59,7 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
         std::vector<std::vector<double>> rec(H.channels, std::vector<double>(n, 0.0));
         for (size_t c = 0; c < H.channels; c++) {
             const float *h = H.response(c, H.exact_begin() + f);
-            for (size_t t = 0; t < keep; t++) {  // r = p * h, causal
+            for (size_t t = 0; t < keep; t++) { // r = p * h, causal
                 double acc = 0;
                 for (size_t m = 0; m < pulse.size() && m <= t; m++)
                     acc += pulse[m] * double(h[t - m]);
@@ -78,4 +78,4 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
     return out;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -24,4 +24,4 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &recordin
 // lead time asks for (data/lead_time.h), at full scale.
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -7,10 +7,7 @@
 
 namespace calib::pipeline {
 
-namespace {
-
-
-}  // namespace
+namespace {} // namespace
 
 double covering_radius(const std::vector<Point> &foci, const std::vector<std::size_t> &members)
 {
@@ -32,7 +29,7 @@ FocusSubset farthest_point_subset(const std::vector<Point> &foci, std::size_t ca
     if (foci.size() <= cap) {
         for (std::size_t i = 0; i < foci.size(); i++)
             s.members.push_back(i);
-        return s;  // every focus is a member: covering radius 0
+        return s; // every focus is a member: covering radius 0
     }
     // Start: the focus nearest the middle of the bounding box (lowest index on a tie).
     double x0 = foci[0].x_m, x1 = x0, y0 = foci[0].y_m, y1 = y0;
@@ -85,4 +82,4 @@ double contrast_model_lags(double window_s, double truncate_fraction, double sea
     return std::max(1.0, std::round(truncate_fraction * n) + n - 1);
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -26,8 +26,8 @@
 namespace calib::pipeline {
 
 struct FocusSubset {
-    std::vector<std::size_t> members;  // indices into the foci: scene order if all, else in the order chosen
-    double covering_radius_m = 0;      // every focus lies within this distance of a member
+    std::vector<std::size_t> members; // indices into the foci: scene order if all, else in the order chosen
+    double covering_radius_m = 0;     // every focus lies within this distance of a member
 };
 
 // Farthest-point subset of at most `cap` foci (cap >= 1). When the foci do
@@ -58,4 +58,4 @@ std::size_t placement_focus_cap(std::optional<unsigned> asked, double sites, dou
 // (placement.h: the kept part of the window plus the window, less one).
 double contrast_model_lags(double window_s, double truncate_fraction, double search_rate_hz);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

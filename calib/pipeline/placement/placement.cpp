@@ -1,7 +1,6 @@
 #include "pipeline/placement/placement.h"
 #include "pipeline/signal/real_fft.h"
 
-
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -32,7 +31,6 @@ std::vector<Point> candidate_sites(const Band &band, double spacing)
         }
     return sites;
 }
-
 
 double distance_variety(const std::vector<Point> &e, double tol)
 {
@@ -66,7 +64,7 @@ std::vector<size_t> regular_pattern(const Band &band, const std::vector<Point> &
     const double w = x1 - x0, h = y1 - y0, perimeter = 2 * (w + h);
     std::vector<size_t> chosen;
     for (unsigned k = 0; k < count; k++) {
-        double s = perimeter * k / count;  // start at the lower-left corner
+        double s = perimeter * k / count; // start at the lower-left corner
         Point p;
         if (s < w)
             p = {x0 + s, y0};
@@ -105,7 +103,7 @@ ContrastModel::ContrastModel(const std::vector<std::vector<std::vector<float>>> 
     sites_ = h[0].size();
     const size_t len = h[0][0].size();
     keep = std::clamp<size_t>(keep, 1, len);
-    const size_t all_lags = keep + len - 1;  // lag from -(keep-1) to len-1
+    const size_t all_lags = keep + len - 1; // lag from -(keep-1) to len-1
     size_t nfft = 1;
     while (nfft < all_lags)
         nfft *= 2;
@@ -156,7 +154,7 @@ void ContrastModel::correlate(const std::vector<std::vector<std::vector<float>>>
         const std::unique_ptr<RealFft> fft = thread_fft(nfft, failure);
         const size_t bins = nfft / 2 + 1;
         std::vector<std::complex<double>> spec_full(fft ? rows_ * bins : 0), spec_kept(fft ? foci_ * bins : 0);
-        const double scale = 1.0 / static_cast<double>(nfft);  // FFTW's inverse is unnormalized
+        const double scale = 1.0 / static_cast<double>(nfft); // FFTW's inverse is unnormalized
 #pragma omp for schedule(dynamic)
         for (size_t i = 0; i < sites_; i++) {
             if (!fft)
@@ -179,10 +177,10 @@ void ContrastModel::correlate(const std::vector<std::vector<std::vector<float>>>
                     fft->inverse();
                     Chunk &ch = chunks_.back();
                     float *c = &ch.corr[((i * foci_ + f) * ch.rows + (g - ch.first_row)) * lags_];
-                    for (size_t l = 0; l < lags_; l++) {  // circular index of the lag (first_lag > -nfft)
+                    for (size_t l = 0; l < lags_; l++) { // circular index of the lag (first_lag > -nfft)
                         const long lag = first_lag + static_cast<long>(l);
-                        c[l] = static_cast<float>(scale *
-                                                  x[static_cast<size_t>(lag < 0 ? lag + static_cast<long>(nfft) : lag)]);
+                        c[l] = static_cast<float>(
+                            scale * x[static_cast<size_t>(lag < 0 ? lag + static_cast<long>(nfft) : lag)]);
                     }
                 }
         }
@@ -249,7 +247,7 @@ double ContrastModel::State::exchange(size_t out, size_t in)
                 float peak = 0;
 #pragma omp simd reduction(max : peak)
                 for (size_t l = 0; l < m.lags_; l++) {
-                    const float v = (y[l] - a[l]) + b[l];  // add(out, -1), add(in, +1)
+                    const float v = (y[l] - a[l]) + b[l]; // add(out, -1), add(in, +1)
                     y[l] = v;
                     if constexpr (Evaluate)
                         peak = std::max(peak, std::abs(v));
@@ -287,8 +285,7 @@ namespace {
 // One restart: its own random stream (the seed and the restart's index), so
 // the restarts run in any order and on any number of threads with one result.
 template <class Evaluator>
-SearchResult anneal_restart(const std::vector<Point> &sites, const SearchOptions &o, unsigned restart,
-                            Evaluator &ev)
+SearchResult anneal_restart(const std::vector<Point> &sites, const SearchOptions &o, unsigned restart, Evaluator &ev)
 {
     std::seed_seq seq{std::uint32_t(o.seed), std::uint32_t(o.seed >> 32), std::uint32_t(restart)};
     std::mt19937_64 rng(seq);
@@ -308,7 +305,7 @@ SearchResult anneal_restart(const std::vector<Point> &sites, const SearchOptions
             if (c < sites.size() && std::find(set.begin(), set.end(), c) == set.end() && spaced_ok(set, set.size(), c))
                 set.push_back(c);
         if (set.size() != o.count)
-            set.clear();  // not a valid start: random like the others
+            set.clear(); // not a valid start: random like the others
     }
     for (unsigned tries = 0; set.size() < o.count && tries < 100 * o.count * (sites.size() + 1); tries++) {
         const size_t c = rng() % sites.size();
@@ -327,7 +324,7 @@ SearchResult anneal_restart(const std::vector<Point> &sites, const SearchOptions
         const double temp = t0 * std::pow(t1 / t0, static_cast<double>(it) / std::max(1u, o.iterations - 1));
         const size_t j = rng() % set.size();
         size_t cand;
-        if (uniform() < 0.75) {  // local move
+        if (uniform() < 0.75) { // local move
             const Point c = sites[set[j]];
             const double ang = 2 * std::numbers::pi * uniform(), rad = o.local_radius_m * uniform();
             const Point target{c.x_m + rad * std::cos(ang), c.y_m + rad * std::sin(ang)};
@@ -425,7 +422,7 @@ struct ContrastEvaluator {
     void undo(size_t, size_t old, size_t cand) { st.undo(cand, old); }
 };
 
-}  // namespace
+} // namespace
 
 SearchResult search_placement(const std::vector<Point> &sites, const SearchOptions &o, const Objective &objective)
 {
@@ -440,4 +437,4 @@ SearchResult search_placement_contrast(const std::vector<Point> &sites, const Se
     return anneal(sites, o, ContrastEvaluator{model});
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -36,13 +36,14 @@ std::vector<size_t> regular_pattern(const Band &band, const std::vector<Point> &
 // a sum of per-site cross-correlations that are computed once (FFT).
 // Contrast of f = max|y_ff| / max_{g != f} max|y_fg|.
 class ContrastModel {
-public:
+  public:
     // half_window > 0 keeps only lags within +-half_window samples of the
     // focus instant (the field when the focus forms, as in the seed's Fig. 4);
     // 0 keeps every lag (the field at all times, as in Fig. 8).
     ContrastModel(const std::vector<std::vector<std::vector<float>>> &responses, size_t foci, size_t keep,
                   size_t half_window = 0)
-        : ContrastModel(responses, responses, foci, keep, half_window) {}
+        : ContrastModel(responses, responses, foci, keep, half_window)
+    {}
     // The exact form: drive signals from the pulse responses r, the field from
     // the impulse responses h (y_fg = sum_i rev(r_fi) * h_gi is then the field
     // the exciters produce at g, up to resampling and quantization).
@@ -70,7 +71,7 @@ public:
     size_t row_bytes() const { return sites_ * foci_ * lags_ * sizeof(float); }
 
     struct Score {
-        double worst_db = 0;               // min over foci of 20 log10(contrast)
+        double worst_db = 0; // min over foci of 20 log10(contrast)
         std::vector<double> per_focus_db;
     };
     // Over the first `rows` rows only (the foci and the first probes).
@@ -78,7 +79,7 @@ public:
 
     // Running sum for a set, updated in O(foci * rows * lags) per exchanged site.
     class State {
-    public:
+      public:
         explicit State(const ContrastModel &m) : m_(&m)
         {
             for (const Chunk &c : m.chunks_)
@@ -91,14 +92,15 @@ public:
         // the worst_db evaluate() would then return (swap), or nothing (undo).
         double swap(size_t out, size_t in);
         void undo(size_t out, size_t in);
-    private:
+
+      private:
         template <bool Evaluate>
         double exchange(size_t out, size_t in);
         const ContrastModel *m_;
-        std::vector<std::vector<float>> y_;  // per chunk, [f][g][lag]
+        std::vector<std::vector<float>> y_; // per chunk, [f][g][lag]
     };
 
-private:
+  private:
     void correlate(const std::vector<std::vector<std::vector<float>>> &r,
                    const std::vector<std::vector<std::vector<float>>> &h, size_t first_row);
     size_t sites_, rows_, foci_, lags_;
@@ -108,7 +110,7 @@ private:
     // first): adding rows appends a chunk, nothing is copied.
     struct Chunk {
         size_t first_row = 0, rows = 0;
-        std::vector<float> corr;  // [site][f][g - first_row][lag]
+        std::vector<float> corr; // [site][f][g - first_row][lag]
     };
     std::vector<Chunk> chunks_;
     std::vector<char> judged_; // [f][g]: row g counts against focus f
@@ -119,8 +121,8 @@ struct SearchOptions {
     double min_spacing_m = 0.03;
     uint64_t seed = 1;
     unsigned restarts = 8;
-    unsigned iterations = 1500;   // annealing moves per restart
-    double local_radius_m = 0.1;  // most moves stay within this distance
+    unsigned iterations = 1500;  // annealing moves per restart
+    double local_radius_m = 0.1; // most moves stay within this distance
     // Annealing temperature in objective units (dB for the contrast objective),
     // lowered geometrically over each restart.
     double temperature_start = 1.0, temperature_end = 0.01;
@@ -130,7 +132,7 @@ struct SearchOptions {
 };
 
 struct SearchResult {
-    std::vector<size_t> chosen;   // indices into the candidate sites
+    std::vector<size_t> chosen; // indices into the candidate sites
     double objective = 0;
     unsigned evaluations = 0;
 };
@@ -142,10 +144,11 @@ struct SearchResult {
 // at once. Throws std::invalid_argument when the band cannot hold `count`
 // exciters at that spacing.
 using Objective = std::function<double(const std::vector<size_t> &chosen)>;
-SearchResult search_placement(const std::vector<Point> &sites, const SearchOptions &options, const Objective &objective);
+SearchResult search_placement(const std::vector<Point> &sites, const SearchOptions &options,
+                              const Objective &objective);
 
 // Same search with the contrast model, using its incremental state.
 SearchResult search_placement_contrast(const std::vector<Point> &sites, const SearchOptions &options,
                                        const ContrastModel &model);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

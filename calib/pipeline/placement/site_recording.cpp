@@ -33,7 +33,7 @@ std::vector<SiteTap> taps_of(const engine::Simulation &sim, const std::vector<Po
     return taps;
 }
 
-}  // namespace
+} // namespace
 
 SiteRecordingOptions site_recording_options(double k, double rate_hz)
 {
@@ -42,7 +42,7 @@ SiteRecordingOptions site_recording_options(double k, double rate_hz)
         throw std::invalid_argument("site recording: time step and rate must be positive");
     const auto m = static_cast<std::size_t>(std::floor(1.0 / (2.0 * rate_hz * k)));
     if (m < 2)
-        return o;  // too coarse to decimate: every step of the one-step impulse
+        return o; // too coarse to decimate: every step of the one-step impulse
     o.decimation = m;
     o.stop_hz = 0.5 / (double(m) * k);
     o.pass_hz = 0.5 * rate_hz;
@@ -81,7 +81,7 @@ SiteRecording record_sites(engine::Simulation &sim, Point source, const std::vec
     if (samples == 0)
         return rec;
     const std::size_t total = centre + (samples - 1) * M + 1;
-    const std::size_t points = sim.plate().grid().node_count();  // the lattice of stride 1: every node
+    const std::size_t points = sim.plate().grid().node_count(); // the lattice of stride 1: every node
     sim.record_lattice(1, centre, M);
     std::size_t s = 0;
     std::vector<float> frames;
@@ -108,7 +108,8 @@ SiteRecording record_sites(engine::Simulation &sim, Point source, const std::vec
     return rec;
 }
 
-std::vector<std::vector<double>> site_responses_at(const SiteRecording &rec, double k, std::size_t steps, double rate_hz)
+std::vector<std::vector<double>> site_responses_at(const SiteRecording &rec, double k, std::size_t steps,
+                                                   double rate_hz)
 {
     // As resample() sizes a full-rate trace of `steps` samples.
     const auto len = static_cast<std::size_t>(std::llround(double(steps) * rate_hz / (1.0 / k)));
@@ -118,4 +119,4 @@ std::vector<std::vector<double>> site_responses_at(const SiteRecording &rec, dou
     return out;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

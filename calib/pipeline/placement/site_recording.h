@@ -37,8 +37,8 @@ namespace calib::pipeline {
 constexpr std::size_t site_recording_chunk_frames = 64;
 
 struct SiteRecordingOptions {
-    std::size_t decimation = 1;       // M: simulation steps per recorded sample
-    double pass_hz = 0, stop_hz = 0;  // the force's band (transfer/transfer.h); stop_hz <= 0: the one-step impulse
+    std::size_t decimation = 1;      // M: simulation steps per recorded sample
+    double pass_hz = 0, stop_hz = 0; // the force's band (transfer/transfer.h); stop_hz <= 0: the one-step impulse
 };
 // M = floor(1 / (2 R k)) (recording rate >= 2 R, so the transition band
 // R / 2 .. 1 / (2 M k) is at least R / 2 wide and the sinc stays short:
@@ -48,8 +48,8 @@ SiteRecordingOptions site_recording_options(double time_step_s, double search_ra
 std::size_t site_recording_delay_steps(double time_step_s, const SiteRecordingOptions &o);
 
 struct SiteRecording {
-    double rate_hz = 0;            // 1 / (M k)
-    std::size_t decimation = 1;    // M
+    double rate_hz = 0;         // 1 / (M k)
+    std::size_t decimation = 1; // M
     // traces[i][n]: displacement (m per N s) at site i, time (n M + 1) k after
     // the impulse; ceil(steps / M) samples cover the `steps` of the window.
     std::vector<std::vector<double>> traces;
@@ -59,13 +59,13 @@ struct SiteRecording {
 // `source` for `steps` steps of the impulse's response (plus the sinc's delay)
 // and records the sites. Throws std::runtime_error on divergence (the
 // simulation's whole-field scans).
-SiteRecording record_sites(engine::Simulation &sim, Point source, const std::vector<Point> &sites,
-                           std::size_t steps, const SiteRecordingOptions &o);
+SiteRecording record_sites(engine::Simulation &sim, Point source, const std::vector<Point> &sites, std::size_t steps,
+                           const SiteRecordingOptions &o);
 
 // The recordings at the search rate: soxr from the recording rate to
 // `rate_hz`, each cut to the length the full-rate `steps` would give
 // (round(steps k rate_hz)).
 std::vector<std::vector<double>> site_responses_at(const SiteRecording &rec, double time_step_s, std::size_t steps,
-                                                  double rate_hz);
+                                                   double rate_hz);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -26,7 +26,7 @@ std::vector<Perturbation> ensemble_members(const CalibrationInput &in, const Rob
     std::vector<Perturbation> out;
     for (double eta : r.loss) {
         if (std::abs(eta / eta0 - 1) < 1e-9)
-            continue;  // the nominal plate
+            continue; // the nominal plate
         out.push_back(loss_case(in, eta, "ensemble"));
     }
     for (double s : r.youngs_scale) {
@@ -65,7 +65,7 @@ std::vector<Member> simulate_members(const CalibrationInput &in, const TransferM
     std::vector<Member> out;
     for (const Perturbation &m : members) {
         CalibrationInput pin = perturbed_input(in, m);
-        std::optional<TransferMatrix> scaled = rescaled_transfer(in, pin, H, m);  // E scalings: exact, no simulation
+        std::optional<TransferMatrix> scaled = rescaled_transfer(in, pin, H, m); // E scalings: exact, no simulation
         TransferMatrix Hm = scaled ? std::move(*scaled) : perturbed_transfer(in, pin, H.exciters, lattice, progress);
         out.push_back({std::move(pin), std::move(Hm)});
     }
@@ -137,7 +137,7 @@ TransferMatrix average(const TransferMatrix &H, const std::vector<Member> &membe
             for (std::size_t f = 0; f < F; f++) {
                 const float *h = Hm.response(c, Hm.exact_begin() + f);
                 double *acc = &sum[(c * F + f) * S];
-                for (std::size_t s = 0; s < S; s++)  // at H's rate
+                for (std::size_t s = 0; s < S; s++) // at H's rate
                     acc[s] += sample_at(Hm, h, s, H.rate_hz);
             }
     }
@@ -148,7 +148,7 @@ TransferMatrix average(const TransferMatrix &H, const std::vector<Member> &membe
     return A;
 }
 
-}  // namespace
+} // namespace
 
 TransferMatrix ensemble_transfer(const CalibrationInput &in, const TransferMatrix &H,
                                  const std::vector<Perturbation> &members, const ProgressFn &progress)
@@ -168,7 +168,7 @@ RobustDesign robust_design(const CalibrationInput &in, const TransferMatrix &H, 
     const bool inverse = in.calibration.method == DriveMethod::inverse_filter;
     const std::vector<Member> plates = simulate_members(in, H, d.members, spec.margin_level || inverse, progress);
     if (inverse) {
-        std::vector<TransferMatrix> resampled;  // members at another rate, at H's
+        std::vector<TransferMatrix> resampled; // members at another rate, at H's
         resampled.reserve(plates.size());
         Plates stack{&H};
         for (const Member &m : plates) {
@@ -202,11 +202,11 @@ RobustDesign robust_design(const CalibrationInput &in, const TransferMatrix &H, 
                 G[f] = std::max(G[f], std::max(v.foci[f].max_whole_area_m, v.foci[f].max_other_foci_m));
             }
         }
-        for (std::size_t f = 0; f < q.size(); f++)  // level g = T / sqrt(P G) of full scale, as a nominal amplitude
+        for (std::size_t f = 0; f < q.size(); f++) // level g = T / sqrt(P G) of full scale, as a nominal amplitude
             d.amplitude_m.push_back(nominal[f] * T / std::sqrt(P[f] * G[f]));
     }
     d.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return d;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -38,8 +38,8 @@ TransferMatrix ensemble_transfer(const CalibrationInput &in, const TransferMatri
                                  const std::vector<Perturbation> &members, const ProgressFn &progress = {});
 
 struct RobustDesign {
-    std::vector<DriveSignals> signals;   // at full scale, like signals_from_transfer
-    std::vector<Perturbation> members;   // without the nominal plate
+    std::vector<DriveSignals> signals; // at full scale, like signals_from_transfer
+    std::vector<Perturbation> members; // without the nominal plate
     // With level = "margin": the focal amplitude to store per focus on the
     // nominal plate (instead of the scene's amplitude_m); empty otherwise.
     std::vector<double> amplitude_m;
@@ -47,4 +47,4 @@ struct RobustDesign {
 };
 RobustDesign robust_design(const CalibrationInput &in, const TransferMatrix &H, const ProgressFn &progress = {});
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -26,9 +26,13 @@ using io::fmt;
 // The scene key each factor comes from, for refusals.
 std::string key_of(const std::string &factor)
 {
-    static const std::pair<const char *, const char *> keys[] = {
-        {"E", "E_rel"},       {"rho", "rho_rel"},   {"thickness", "thickness_rel"},         {"loss", "loss"},
-        {"loss scale", "loss_scale"}, {"temperature", "temperature_k"}, {"exciters", "exciter_position_m"}};
+    static const std::pair<const char *, const char *> keys[] = {{"E", "E_rel"},
+                                                                 {"rho", "rho_rel"},
+                                                                 {"thickness", "thickness_rel"},
+                                                                 {"loss", "loss"},
+                                                                 {"loss scale", "loss_scale"},
+                                                                 {"temperature", "temperature_k"},
+                                                                 {"exciters", "exciter_position_m"}};
     for (const auto &[f, key] : keys)
         if (factor == f)
             return std::string("tolerance.") + key;
@@ -38,8 +42,7 @@ std::string key_of(const std::string &factor)
 // Uniform in [0, 1) from a 64-bit generator (the same on every platform).
 double uniform(std::mt19937_64 &g) { return double(g() >> 11) * 0x1p-53; }
 
-Perturbation scaled(const std::string &name, const std::string &factor, double youngs, double density,
-                    double thickness)
+Perturbation scaled(const std::string &name, const std::string &factor, double youngs, double density, double thickness)
 {
     Perturbation p;
     p.name = name;
@@ -52,7 +55,7 @@ Perturbation scaled(const std::string &name, const std::string &factor, double y
 
 std::string percent(double rel) { return fmt("%+g %%", 100 * rel); }
 
-}  // namespace
+} // namespace
 
 double loss_factor(const engine::PlateOperator &plate, double f_hz)
 {
@@ -120,11 +123,11 @@ void check_tolerance(const CalibrationInput &in, const ToleranceSpec &t)
     // stay inside it). Only a forced time step can fail; otherwise a plate
     // whose bound the nominal step passes gets its own.
     if (!(in.simulation.time_step_s > 0) || in.effects.thick_plate)
-        return;  // each plate then takes its own stable step: nothing to build here
+        return; // each plate then takes its own stable step: nothing to build here
     std::vector<Perturbation> cases = one_at_a_time(in, t);
     if (t.random_cases > 0) {
-        Perturbation corner = scaled("the stiffest, most lossy corner of the random combinations", "",
-                                     1 + t.youngs_rel, 1 - t.density_rel, 1 + t.thickness_rel);
+        Perturbation corner = scaled("the stiffest, most lossy corner of the random combinations", "", 1 + t.youngs_rel,
+                                     1 - t.density_rel, 1 + t.thickness_rel);
         corner.youngs_scale *= 1 + std::abs(r.youngs_per_kelvin) * t.temperature_k;
         for (const Perturbation &p : cases)
             if (p.factor == "loss")
@@ -219,7 +222,7 @@ std::vector<Perturbation> random_combinations(const CalibrationInput &in, const 
         p.youngs_scale *= 1 + r.youngs_per_kelvin * p.temperature_k;
         if (t.exciter_position_m > 0)
             for (unsigned c = 0; c < in.exciters.count; c++) {
-                const double rad = t.exciter_position_m * std::sqrt(uniform(g));  // uniform over the disc
+                const double rad = t.exciter_position_m * std::sqrt(uniform(g)); // uniform over the disc
                 const double th = 2 * std::numbers::pi * uniform(g);
                 p.exciter_offsets_m.push_back({rad * std::cos(th), rad * std::sin(th)});
             }
@@ -242,11 +245,11 @@ CalibrationInput perturbed_input(const CalibrationInput &in, const Perturbation 
     pp.loss.sigma0 *= p.loss_scale;
     pp.loss.sigma1 *= p.loss_scale * kappa_ratio;
     CalibrationInput out = in;
-    out.lambda_half_m = judged_lambda_half_m(in);  // judged on the scene's area, whatever the plate
+    out.lambda_half_m = judged_lambda_half_m(in); // judged on the scene's area, whatever the plate
     auto op = std::make_shared<const engine::PlateOperator>(pp, in.plate->grid());
     if (!in.effects.thick_plate) {
         if (in.simulation.time_step_s > 0) {
-            engine::check_stable_time_step(*op, in.simulation.time_step_s);  // the scene forced it
+            engine::check_stable_time_step(*op, in.simulation.time_step_s); // the scene forced it
         } else {
             // The nominal step while this plate takes it with a margin.
             const double k = in.simulation.courant * in.plate->max_time_step();
@@ -258,8 +261,7 @@ CalibrationInput perturbed_input(const CalibrationInput &in, const Perturbation 
     return out;
 }
 
-std::vector<Point> moved_exciters(const CalibrationInput &in, const std::vector<Point> &exciters,
-                                  const Perturbation &p)
+std::vector<Point> moved_exciters(const CalibrationInput &in, const std::vector<Point> &exciters, const Perturbation &p)
 {
     std::vector<Point> out = exciters;
     const engine::Grid &g = in.plate->grid();
@@ -297,8 +299,8 @@ std::optional<TransferMatrix> rescaled_transfer(const CalibrationInput &nominal,
         return std::nullopt;
     const double alpha = perturbed.plate->kappa() / nominal.plate->kappa();
     // sigma0 would have to scale with alpha: only a negligible sigma0 allows it.
-    const double sigma_centre = loss_factor(*nominal.plate, nominal.pulse.centre_hz) * std::numbers::pi *
-                                nominal.pulse.centre_hz;
+    const double sigma_centre =
+        loss_factor(*nominal.plate, nominal.pulse.centre_hz) * std::numbers::pi * nominal.pulse.centre_hz;
     if (a.loss.sigma0 != 0 && std::abs(a.loss.sigma0 * (alpha - 1)) > 1e-9 * sigma_centre)
         return std::nullopt;
     TransferMatrix R = H;
@@ -322,8 +324,8 @@ std::vector<std::vector<int16_t>> stretched(const std::vector<std::vector<int16_
             throw std::invalid_argument("speed compensation: a speed ratio of " + fmt("%.4f", speed_ratio) +
                                         " is beyond what a device stretches (" + fmt("%g", HAPTIC_STRETCH_MIN_RATIO) +
                                         "-" + fmt("%g", HAPTIC_STRETCH_MAX_RATIO) + ")");
-        if (const int rc = haptic_stretch(s.data(), frames, static_cast<uint32_t>(channels), speed_ratio, t.data(),
-                                          nullptr);
+        if (const int rc =
+                haptic_stretch(s.data(), frames, static_cast<uint32_t>(channels), speed_ratio, t.data(), nullptr);
             rc != 0)
             throw std::runtime_error("speed compensation: the resampler failed (" + std::string(std::strerror(-rc)) +
                                      ")");
@@ -347,7 +349,7 @@ CaseFigures figures_of(const Verification &v, const std::vector<std::vector<int1
         c.max_peak_m = std::max(c.max_peak_m, m.peak_m);
         c.max_offset_m = std::max(c.max_offset_m, m.perceived_offset_distance_m);
         c.max_lead_time_s = std::max(c.max_lead_time_s, m.lead_time_s);
-        const bool holds = m.passes();  // the verdict (data/verdict.h)
+        const bool holds = m.passes(); // the verdict (data/verdict.h)
         c.foci_passing += holds;
         c.foci_failing += !holds;
         c.area_crossings += m.whole_area && !m.whole_area_below_threshold;
@@ -405,11 +407,11 @@ std::vector<ToleranceCase> evaluate_cases(const CalibrationInput &in, const std:
         const TransferMatrix H =
             scaled ? std::move(*scaled) : perturbed_transfer(in, pin, moved_exciters(in, exciters, cases[i]), true);
         const double F = in.exciters.force_full_scale_n;
-        c.table = figures_of(verify_signals_with(pin, H, table.signals, table.rate_hz), table.signals, F,
-                             table.rate_hz);
+        c.table =
+            figures_of(verify_signals_with(pin, H, table.signals, table.rate_hz), table.signals, F, table.rate_hz);
         if (plain)
-            c.nominal_design = figures_of(verify_signals_with(pin, H, plain->signals, plain->rate_hz),
-                                          plain->signals, F, plain->rate_hz);
+            c.nominal_design = figures_of(verify_signals_with(pin, H, plain->signals, plain->rate_hz), plain->signals,
+                                          F, plain->rate_hz);
         c.speed_ratio = pin.plate->kappa() / in.plate->kappa();
         if (in.tolerance && in.tolerance->speed_compensation && c.speed_ratio != 1) {
             // What the device plays on this panel (hapticd [panel]), verified.
@@ -429,4 +431,4 @@ std::vector<ToleranceCase> evaluate_cases(const CalibrationInput &in, const std:
     return out;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

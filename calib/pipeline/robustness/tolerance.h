@@ -29,9 +29,9 @@ double loss_factor(const engine::PlateOperator &plate, double f_hz);
 // The box with the material's defaults filled in (loss range, dE/dT).
 struct ResolvedTolerance {
     ToleranceSpec spec;
-    double nominal_loss = 0;     // eta at the pulse centre
+    double nominal_loss = 0; // eta at the pulse centre
     double youngs_per_kelvin = 0;
-    bool loss_range = false;     // spec.loss_min/max hold a range
+    bool loss_range = false; // spec.loss_min/max hold a range
 };
 ResolvedTolerance resolve_tolerance(const CalibrationInput &in, const ToleranceSpec &t);
 
@@ -104,4 +104,4 @@ std::vector<ToleranceCase> evaluate_cases(const CalibrationInput &in, const std:
                                           const StoredTable *plain, const ProgressFn &progress = {},
                                           const TransferMatrix *nominal_H = nullptr);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

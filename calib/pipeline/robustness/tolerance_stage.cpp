@@ -19,14 +19,13 @@ std::vector<std::vector<int16_t>> level_as_stored(const CalibrationInput &in, co
         if (!(peak[f] > 0))
             throw std::runtime_error("focus " + std::to_string(in.foci.points[f].id) +
                                      ": the exciters produce no displacement there");
-        requantize(signals[f], std::min(1.0, in.pulse.amplitude_m / peak[f]), drive_options(in, f));  // as calibrate()
+        requantize(signals[f], std::min(1.0, in.pulse.amplitude_m / peak[f]), drive_options(in, f)); // as calibrate()
     }
     return stored_samples(signals);
 }
 
 ToleranceReport tolerance_stage(const CalibrationInput &in, const TransferMatrix &H, const CalibrationResult &res,
-                                std::vector<DriveSignals> plain, const RobustDesign *robust,
-                                const ProgressFn &progress)
+                                std::vector<DriveSignals> plain, const RobustDesign *robust, const ProgressFn &progress)
 {
     const auto t0 = std::chrono::steady_clock::now();
     const double rate = in.calibration.output_rate_hz, F = in.exciters.force_full_scale_n;
@@ -79,4 +78,4 @@ ToleranceReport tolerance_stage(const CalibrationInput &in, const TransferMatrix
     return r;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

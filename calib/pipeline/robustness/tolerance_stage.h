@@ -25,7 +25,7 @@ std::vector<std::vector<int16_t>> level_as_stored(const CalibrationInput &in, co
 // ensemble's members). `plain`: the plain design at full scale when the table
 // is a robust one (empty otherwise).
 ToleranceReport tolerance_stage(const CalibrationInput &in, const TransferMatrix &H, const CalibrationResult &res,
-                                 std::vector<DriveSignals> plain, const RobustDesign *robust,
-                                 const ProgressFn &progress = {});
+                                std::vector<DriveSignals> plain, const RobustDesign *robust,
+                                const ProgressFn &progress = {});
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -11,7 +11,7 @@
 namespace calib::pipeline {
 
 class FirstFailure {
-public:
+  public:
     void keep(std::size_t item, const std::string &what)
     {
 #pragma omp critical(calib_first_failure)
@@ -27,9 +27,9 @@ public:
             throw std::runtime_error(what_);
     }
 
-private:
+  private:
     std::size_t item_ = SIZE_MAX;
     std::string what_;
 };
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -46,7 +46,7 @@ double at_sixteenth(const float *x, std::size_t n, long i0, int m)
     return acc;
 }
 
-}  // namespace
+} // namespace
 
 double interpolate(const float *x, std::size_t n, double t)
 {
@@ -56,8 +56,9 @@ double interpolate(const float *x, std::size_t n, double t)
     const double u = (t - f) * steps_per_sample;
     const double m = std::floor(u);
     const double a = at_sixteenth(x, n, long(f), int(m));
-    const double b = m + 1 < steps_per_sample ? at_sixteenth(x, n, long(f), int(m) + 1) : at_sixteenth(x, n, long(f) + 1, 0);
-    return a + (u - m) * (b - a);  // linear between 1/16 steps: 1e-4 for content below a quarter of the rate
+    const double b =
+        m + 1 < steps_per_sample ? at_sixteenth(x, n, long(f), int(m) + 1) : at_sixteenth(x, n, long(f) + 1, 0);
+    return a + (u - m) * (b - a); // linear between 1/16 steps: 1e-4 for content below a quarter of the rate
 }
 
 double sample_peak(const float *x, std::size_t n)
@@ -104,4 +105,4 @@ Peak refined_peak(const float *x, std::size_t n)
     return best;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

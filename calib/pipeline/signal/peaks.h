@@ -12,8 +12,8 @@
 namespace calib::pipeline {
 
 struct Peak {
-    double value = 0;  // |x| at the peak
-    double index = 0;  // fractional sample index
+    double value = 0; // |x| at the peak
+    double index = 0; // fractional sample index
 };
 
 // Value at fractional index t (zero outside the signal).
@@ -24,4 +24,4 @@ inline Peak refined_peak(const std::vector<float> &x) { return refined_peak(x.da
 // Largest sample |x| (no refinement).
 double sample_peak(const float *x, std::size_t n);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -86,4 +86,4 @@ double pulse_max_frequency_hz(const PulseSpec &p, double level)
 
 double search_rate(const PulseSpec &p) { return std::max(2000.0, std::ceil(4.0 * pulse_max_frequency_hz(p))); }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -7,16 +7,16 @@
 namespace calib::pipeline {
 
 enum class PulseShape {
-    hann_burst,      // sin(2 pi f t) under a Hann window of `cycles` periods (the seed's pulse)
-    gaussian_burst,  // sin(2 pi f t) under a Gaussian, -40 dB at the same total length
-    ricker,          // Mexican-hat wavelet with peak spectral frequency f (cycles ignored)
+    hann_burst,     // sin(2 pi f t) under a Hann window of `cycles` periods (the seed's pulse)
+    gaussian_burst, // sin(2 pi f t) under a Gaussian, -40 dB at the same total length
+    ricker,         // Mexican-hat wavelet with peak spectral frequency f (cycles ignored)
 };
 
 struct PulseSpec {
     PulseShape shape = PulseShape::hann_burst;
     double centre_hz = 300.0;
     double cycles = 2.0;
-    double amplitude_m = 10e-6;  // target focal displacement (the seed's +-10 um)
+    double amplitude_m = 10e-6; // target focal displacement (the seed's +-10 um)
 };
 
 // "hann_burst", ... -> shape; throws std::invalid_argument listing the known names.
@@ -37,4 +37,4 @@ double pulse_max_frequency_hz(const PulseSpec &p, double level = 0.01);
 // everything after the simulation (search, time reversal) works at this rate.
 double search_rate(const PulseSpec &p);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -66,4 +66,4 @@ std::unique_ptr<RealFft> thread_fft(std::size_t n, std::string &failure)
     }
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -15,7 +15,7 @@ namespace calib::pipeline {
 std::mutex &fftw_planner_mutex();
 
 class RealFft {
-public:
+  public:
     explicit RealFft(std::size_t n);
     ~RealFft();
     RealFft(const RealFft &) = delete;
@@ -23,9 +23,9 @@ public:
 
     std::size_t size() const { return n_; }
     std::size_t bins() const { return n_ / 2 + 1; }
-    double *real() { return real_; }                  // size() samples
-    std::complex<double> *spectrum() { return spec_; }  // bins() bins
-    void forward();  // real() -> spectrum()
+    double *real() { return real_; }                   // size() samples
+    std::complex<double> *spectrum() { return spec_; } // bins() bins
+    void forward();                                    // real() -> spectrum()
     // x[0..count) zero-padded to size() into real(), then forward().
     template <typename T>
     void forward_padded(const T *x, std::size_t count)
@@ -37,9 +37,9 @@ public:
             real_[i] = 0.0;
         forward();
     }
-    void inverse();  // spectrum() -> real(), unnormalized (n times the signal); spectrum() is overwritten
+    void inverse(); // spectrum() -> real(), unnormalized (n times the signal); spectrum() is overwritten
 
-private:
+  private:
     std::size_t n_;
     double *real_ = nullptr;
     std::complex<double> *spec_ = nullptr;
@@ -51,4 +51,4 @@ private:
 // one must still enter the region's work-sharing loops (and skip its share).
 std::unique_ptr<RealFft> thread_fft(std::size_t n, std::string &failure);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

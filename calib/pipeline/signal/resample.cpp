@@ -38,8 +38,8 @@ std::vector<std::vector<double>> resample_all(const std::vector<std::vector<doub
     const soxr_io_spec_t io = soxr_io_spec(SOXR_FLOAT64_S, SOXR_FLOAT64_S);
     const soxr_quality_spec_t q = soxr_quality_spec(SOXR_HQ | SOXR_LINEAR_PHASE, 0);
     const soxr_runtime_spec_t rt = soxr_runtime_spec(1);
-    soxr_error_t err = soxr_oneshot(in_rate, out_rate, unsigned(x.size()), in.data(), len, nullptr, out.data(),
-                                    out_len, &done, &io, &q, &rt);
+    soxr_error_t err = soxr_oneshot(in_rate, out_rate, unsigned(x.size()), in.data(), len, nullptr, out.data(), out_len,
+                                    &done, &io, &q, &rt);
     if (err)
         throw std::runtime_error(std::string("soxr: ") + err);
     for (std::vector<double> &c : y)
@@ -47,4 +47,4 @@ std::vector<std::vector<double>> resample_all(const std::vector<std::vector<doub
     return y;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -13,4 +13,4 @@ std::vector<double> resample(const std::vector<double> &x, double in_rate_hz, do
 std::vector<std::vector<double>> resample_all(const std::vector<std::vector<double>> &x, double in_rate_hz,
                                               double out_rate_hz);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

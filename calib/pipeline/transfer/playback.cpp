@@ -24,7 +24,7 @@ struct ComplexBuffer {
     ~ComplexBuffer() { fftwf_free(p); }
 };
 
-}  // namespace
+} // namespace
 
 std::size_t fft_friendly_size(std::size_t n)
 {
@@ -62,7 +62,7 @@ Playback::Playback(const TransferMatrix &H, std::vector<std::size_t> points, std
     nfft_ = fft_friendly_size(std::max<std::size_t>(2, drive_samples + H.samples));
     bins_ = nfft_ / 2 + 1;
     out_ = std::min(out_, nfft_);
-    scale_ = 1.0 / (H.rate_hz * double(nfft_));  // dt of the sum, and FFTW's unnormalized inverse
+    scale_ = 1.0 / (H.rate_hz * double(nfft_)); // dt of the sum, and FFTW's unnormalized inverse
     plans_ = std::make_unique<Plans>();
     RealBuffer x(nfft_);
     ComplexBuffer X(bins_);
@@ -158,4 +158,4 @@ std::vector<std::vector<float>> Playback::field(const std::vector<std::vector<do
     return w;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -19,7 +19,7 @@
 namespace calib::pipeline {
 
 class Playback {
-public:
+  public:
     // Serves `points` (indices into H.points) for drives of up to
     // `drive_samples` and outputs of `output_samples`, both at H's rate.
     Playback(const TransferMatrix &H, std::vector<std::size_t> points, std::size_t drive_samples,
@@ -39,17 +39,17 @@ public:
     std::vector<std::vector<float>> field(const std::vector<std::vector<double>> &force,
                                           const std::vector<std::size_t> &which) const;
 
-private:
+  private:
     struct Plans;
     const TransferMatrix &H_;
     std::vector<std::size_t> points_;
     std::size_t nfft_ = 0, bins_ = 0, out_ = 0, drive_ = 0;
     double scale_ = 0;
-    std::vector<std::complex<float>> spectra_;  // [point][channel][bin]
+    std::vector<std::complex<float>> spectra_; // [point][channel][bin]
     std::unique_ptr<Plans> plans_;
 };
 
 // FFT sizes FFTW does fast (2^a 3^b 5^c 7^d), at least n.
 std::size_t fft_friendly_size(std::size_t n);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -19,7 +19,7 @@ namespace {
 // beta = 0.1102 (A - 8.7), length (A - 8) / (2.285 delta_omega).
 constexpr double stop_band_db = 80.0;
 
-}  // namespace
+} // namespace
 
 std::vector<double> band_limited_impulse(double k, double pass_hz, double stop_hz, std::size_t &centre)
 {
@@ -28,7 +28,7 @@ std::vector<double> band_limited_impulse(double k, double pass_hz, double stop_h
     const double delta_omega = 2 * std::numbers::pi * (stop_hz - pass_hz) * k;
     const auto half = static_cast<std::size_t>(std::ceil((stop_band_db - 8) / (2.285 * delta_omega) / 2));
     const double beta = 0.1102 * (stop_band_db - 8.7);
-    const double fc = 0.5 * (pass_hz + stop_hz) * k;  // cycles per step
+    const double fc = 0.5 * (pass_hz + stop_hz) * k; // cycles per step
     std::vector<double> b(2 * half + 1);
     const double i0b = std::cyl_bessel_i(0.0, beta);
     double sum = 0;
@@ -41,7 +41,7 @@ std::vector<double> band_limited_impulse(double k, double pass_hz, double stop_h
         sum += b[n];
     }
     for (double &v : b)
-        v /= sum * k;  // unit impulse: sum b k = 1 N s
+        v /= sum * k; // unit impulse: sum b k = 1 N s
     centre = half;
     return b;
 }
@@ -156,4 +156,4 @@ TransferMatrix transfer_for(const CalibrationInput &in, const std::vector<Point>
     });
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

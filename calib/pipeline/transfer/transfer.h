@@ -33,9 +33,9 @@
 namespace calib::pipeline {
 
 struct TransferOptions {
-    std::size_t decimation = 1;   // M: record every M-th step
-    std::size_t samples = 0;      // stored samples per response
-    int lattice_stride = 0;       // 0: no lattice, only the exact points
+    std::size_t decimation = 1; // M: record every M-th step
+    std::size_t samples = 0;    // stored samples per response
+    int lattice_stride = 0;     // 0: no lattice, only the exact points
     // Band edges of the force (Hz): flat (to 1e-4) below pass_hz, -80 dB above
     // stop_hz. stop_hz <= 0: the force is one 1 N s impulse in the first step
     // (the scheme's own impulse response, for tests at decimation 1).
@@ -64,4 +64,4 @@ TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<P
 TransferMatrix transfer_for(const CalibrationInput &in, const std::vector<Point> &exciters,
                             const ProgressFn &progress = {});
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

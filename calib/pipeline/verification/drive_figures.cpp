@@ -51,4 +51,4 @@ DriveFigures drive_figures(const CalibrationInput &in, const std::vector<int16_t
     return d;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

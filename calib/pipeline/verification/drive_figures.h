@@ -11,9 +11,9 @@ namespace calib::pipeline {
 struct CalibrationInput;
 
 struct DriveFigures {
-    double energy_n2s = 0;             // sum over channels of the integral of F(t)^2 (N^2 s)
-    double out_of_band_fraction = 0;   // of that energy above the pulse's -40 dB band edge
-    double peak_per_root_energy = 0;   // focal peak / sqrt(energy) (m / (N s^0.5)); 0 without a peak
+    double energy_n2s = 0;           // sum over channels of the integral of F(t)^2 (N^2 s)
+    double out_of_band_fraction = 0; // of that energy above the pulse's -40 dB band edge
+    double peak_per_root_energy = 0; // focal peak / sqrt(energy) (m / (N s^0.5)); 0 without a peak
 };
 
 // The force energy alone: sum over channels of the integral of F(t)^2 (N^2 s)
@@ -25,4 +25,4 @@ double drive_energy_n2s(const std::vector<int16_t> &samples, double force_full_s
 DriveFigures drive_figures(const CalibrationInput &in, const std::vector<int16_t> &samples, unsigned channels,
                            double rate_hz, double peak_m);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -40,7 +40,7 @@ std::array<double, 2> envelopes(const std::vector<std::complex<double>> &target,
     return out;
 }
 
-}  // namespace
+} // namespace
 
 FocusCeiling ideal_focus_ceiling(const PulseSpec &pulse, const std::function<double(double)> &wavenumber_per_m,
                                  double radius_m)
@@ -87,4 +87,4 @@ FocusCeiling ideal_focus_ceiling(const PulseSpec &pulse, const std::function<dou
     return c;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -42,4 +42,4 @@ struct FocusCeiling {
 FocusCeiling ideal_focus_ceiling(const PulseSpec &pulse, const std::function<double(double)> &wavenumber_per_m,
                                  double radius_m);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -27,7 +27,7 @@ double gram_at(const void *ctx, uint32_t i, uint32_t j)
     return (*v->g)[i * v->k + j];
 }
 
-}  // namespace
+} // namespace
 
 DeviceMix device_mix(const std::vector<const std::vector<int16_t> *> &s, unsigned C, double level, double gain_limit)
 {
@@ -119,7 +119,7 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
     for (std::size_t f = 0; f < K; f++)
         served.push_back(H.exact_begin() + f);
     const Rect &area = in.active.area;
-    std::vector<std::size_t> lattice;  // active-area lattice points
+    std::vector<std::size_t> lattice; // active-area lattice points
     for (std::size_t n = 0; n < L; n++) {
         const Point p = H.lattice.at(n);
         if (p.x_m >= area.x0_m && p.x_m <= area.x1_m && p.y_m >= area.y0_m && p.y_m <= area.y1_m) {
@@ -146,7 +146,7 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
         for (std::size_t f : set)
             focal.push_back(refined_peak(w[f]).value);
         double loudest = *std::max_element(focal.begin(), focal.end());
-        if (cap_at_amplitude && gain > 0 && loudest > in.pulse.amplitude_m) {  // the field is at `gain` already
+        if (cap_at_amplitude && gain > 0 && loudest > in.pulse.amplitude_m) { // the field is at `gain` already
             v.gain = gain * in.pulse.amplitude_m / loudest;
             const double k = v.gain / gain;
             v.energy *= k * k;
@@ -232,4 +232,4 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
     return rep;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

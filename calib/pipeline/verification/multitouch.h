@@ -32,35 +32,35 @@ struct CalibrationInput;
 
 // One drive of a set played through H.
 struct SetVerdict {
-    double gain = 0;                    // the firmware's g (superposition) or g_joint
-    double energy = 0;                  // of the drive played, counts^2 (full scale 32767)
-    double min_focus_peak_m = 0;        // the weakest touched focus
-    double max_focus_peak_m = 0;        // the loudest touched focus
-    double max_elsewhere_m = 0;         // largest |w| beyond lambda/2 of every touched focus, all times
+    double gain = 0;             // the firmware's g (superposition) or g_joint
+    double energy = 0;           // of the drive played, counts^2 (full scale 32767)
+    double min_focus_peak_m = 0; // the weakest touched focus
+    double max_focus_peak_m = 0; // the loudest touched focus
+    double max_elsewhere_m = 0;  // largest |w| beyond lambda/2 of every touched focus, all times
     Point elsewhere_at;
     // min(weakest focus - threshold, threshold - max elsewhere): > 0 when ok.
     double margin_m = 0;
-    bool ok = false;                    // every touched focus crosses, nothing else does
+    bool ok = false; // every touched focus crosses, nothing else does
     // Weakest focus over max elsewhere (dB): the set's contrast.
     double contrast_db() const;
 };
 
 struct MultiTouchCase {
-    std::vector<std::size_t> foci;      // indices into the scene's foci
-    SetVerdict superposed;              // the firmware's mix of the stored foci
+    std::vector<std::size_t> foci; // indices into the scene's foci
+    SetVerdict superposed;         // the firmware's mix of the stored foci
     bool has_joint = false;
-    SetVerdict joint;                   // the set's joint inverse filter (MultiTouchOptions::joint)
+    SetVerdict joint; // the set's joint inverse filter (MultiTouchOptions::joint)
 };
 
 struct MultiTouchReport {
     std::vector<MultiTouchCase> cases;
-    std::size_t worst = 0;              // least superposed margin_m
-    std::size_t failing = 0;            // superposed
+    std::size_t worst = 0;   // least superposed margin_m
+    std::size_t failing = 0; // superposed
 };
 
 struct MultiTouchOptions {
-    bool triples = false;               // every triple of foci >= lambda/2 apart too
-    bool joint = false;                 // design each set jointly too (the inverse filter)
+    bool triples = false; // every triple of foci >= lambda/2 apart too
+    bool joint = false;   // design each set jointly too (the inverse filter)
 };
 
 // What the device plays for a set of stored foci ([n][c] int16 counts; a
@@ -69,8 +69,8 @@ struct MultiTouchOptions {
 // board's gain limit, applied in Q30 and rounded to S16 as the device does,
 // so calibgen judges the device's samples, not a model of them.
 struct DeviceMix {
-    double gain = 0;                    // the law's g
-    std::vector<int16_t> samples;       // [n][c], the longest signal's length
+    double gain = 0;              // the law's g
+    std::vector<int16_t> samples; // [n][c], the longest signal's length
 };
 DeviceMix device_mix(const std::vector<const std::vector<int16_t> *> &signals, unsigned channels, double level = 1.0,
                      double gain_limit = 1.0);
@@ -84,4 +84,4 @@ MultiTouchReport verify_multitouch(const CalibrationInput &in, const TransferMat
                                    const std::vector<std::vector<int16_t>> &signals, double rate_hz,
                                    const MultiTouchOptions &options = {});
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

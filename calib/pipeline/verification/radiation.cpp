@@ -22,17 +22,17 @@ double a_weighting(double f)
     if (!(f > 0))
         return 0.0;
     const double f2 = f * f;
-    const double ra = 12194.0 * 12194.0 * f2 * f2 /
-                      ((f2 + 20.6 * 20.6) * std::sqrt((f2 + 107.7 * 107.7) * (f2 + 737.9 * 737.9)) *
-                       (f2 + 12194.0 * 12194.0));
-    return ra * std::pow(10.0, 2.0 / 20);  // +2.00 dB: unity at 1 kHz
+    const double ra =
+        12194.0 * 12194.0 * f2 * f2 /
+        ((f2 + 20.6 * 20.6) * std::sqrt((f2 + 107.7 * 107.7) * (f2 + 737.9 * 737.9)) * (f2 + 12194.0 * 12194.0));
+    return ra * std::pow(10.0, 2.0 / 20); // +2.00 dB: unity at 1 kHz
 }
 
 std::vector<double> rayleigh_pressure(const ObservationLattice &lattice, const std::vector<std::vector<float>> &w,
                                       double R, Point listener, double z, std::size_t samples)
 {
     std::size_t N = 1;
-    while (N < samples + 64)  // room for the largest propagation delay
+    while (N < samples + 64) // room for the largest propagation delay
         N *= 2;
     const double dA = lattice.spacing_m * lattice.spacing_m;
     std::vector<std::complex<double>> P(N, 0.0), W;
@@ -83,7 +83,7 @@ double a_weighted_exposure(const std::vector<double> &p, double R)
         const double f = std::abs((k <= N / 2 ? double(k) : double(k) - double(N)) * R / double(N));
         e += std::norm(P[k] * a_weighting(f));
     }
-    return e / (double(N) * R);  // Parseval: sum p^2 / R = sum |P|^2 / (N R)
+    return e / (double(N) * R); // Parseval: sum p^2 / R = sum |P|^2 / (N R)
 }
 
 std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const TransferMatrix &H,
@@ -127,7 +127,7 @@ std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const Tra
     {
         const std::unique_ptr<RealFft> fft = thread_fft(N, failure);
 #pragma omp for schedule(dynamic)
-        for (std::size_t c = 0; c < C; c++) {  // each exciter's Q_c on one thread
+        for (std::size_t c = 0; c < C; c++) { // each exciter's Q_c on one thread
             if (!fft)
                 continue;
             std::complex<double> *q = &Q[c * bins];
@@ -184,4 +184,4 @@ std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const Tra
     return out;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -27,12 +27,12 @@ namespace calib::pipeline {
 struct CalibrationInput;
 
 struct RadiatedSound {
-    double exposure_level_dba = 0;  // L_AE
-    double laeq_dba = 0;            // L_Aeq over the drive's duration
-    double peak_pa = 0;             // largest |p| (unweighted)
+    double exposure_level_dba = 0; // L_AE
+    double laeq_dba = 0;           // L_Aeq over the drive's duration
+    double peak_pa = 0;            // largest |p| (unweighted)
 };
 
-constexpr double air_density_kg_m3 = 1.204;  // 20 C, sea level
+constexpr double air_density_kg_m3 = 1.204; // 20 C, sea level
 constexpr double sound_speed_m_s = 343.2;
 
 // A-weighting gain (linear, 1 at 1 kHz) at frequency f (IEC 61672-1).
@@ -59,4 +59,4 @@ std::vector<RadiatedSound> radiated_sounds(const CalibrationInput &in, const Tra
                                            const std::vector<std::vector<int16_t>> &signals, double rate_hz,
                                            double distance_m = 0.5);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

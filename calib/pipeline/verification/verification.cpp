@@ -66,7 +66,7 @@ std::vector<float> upsample_lanczos(const std::vector<float> &f, int cols, int r
     return out;
 }
 
-}  // namespace
+} // namespace
 
 bool is_other_focus(const CalibrationInput &in, std::size_t f, std::size_t g, double lambda_half_m)
 {
@@ -117,7 +117,7 @@ std::vector<std::vector<double>> drive_forces(const CalibrationInput &in, const 
         force[c] = resample(ch, rate_hz, H.rate_hz);
         for (double &v : force[c])
             v *= in.exciters.force_full_scale_n;
-        if (in.effects.exciter)  // the drive is Bl i; the plate gets the exciter's blocked force
+        if (in.effects.exciter) // the drive is Bl i; the plate gets the exciter's blocked force
             force[c] = engine::effects::blocked_force(force[c], H.rate_hz, *in.effects.exciter);
     }
     return force;
@@ -146,7 +146,7 @@ void require_finite(const std::vector<float> &w, uint32_t id)
             throw std::runtime_error("focus " + std::to_string(id) + ": non-finite displacement in the playback");
 }
 
-}  // namespace
+} // namespace
 
 std::vector<double> focal_peaks(const CalibrationInput &in, const TransferMatrix &H,
                                 const std::vector<std::vector<int16_t>> &signals, double rate_hz)
@@ -184,7 +184,7 @@ Verification verify_signals_with(const CalibrationInput &in, const TransferMatri
         throw std::invalid_argument("verification: " + std::to_string(signals.size()) + " signals for " +
                                     std::to_string(K) + " foci");
     const size_t drive = static_cast<size_t>(std::ceil(double(longest(signals, C)) * H.rate_hz / rate_hz)) + 1;
-    std::vector<size_t> served;  // the foci, then the lattice
+    std::vector<size_t> served; // the foci, then the lattice
     for (size_t f = 0; f < K; f++)
         served.push_back(H.exact_begin() + f);
     for (size_t n = 0; n < L; n++)
@@ -223,7 +223,7 @@ Verification verify_signals_with(const CalibrationInput &in, const TransferMatri
             require_finite(w[g], in.foci.points[g].id);
         const Peak pk = refined_peak(w[f]);
         m.peak_m = pk.value;
-        m.lead_time_s = pk.index * M * k + k;  // trace index s M is the state after step s M
+        m.lead_time_s = pk.index * M * k + k; // trace index s M is the state after step s M
         size_t others = 0;
         for (size_t g = 0; g < K; g++) {
             v.traces[f].emplace_back(w[g].begin(), w[g].end());
@@ -395,4 +395,4 @@ Verification verify_drive(const CalibrationInput &in, const std::vector<Point> &
     return v;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -71,4 +71,4 @@ bool is_other_focus(const CalibrationInput &in, std::size_t f, std::size_t g, do
 // int16 samples as floats at full scale 1.0.
 std::vector<float> to_unit(const std::vector<int16_t> &s);
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline

@@ -33,11 +33,12 @@ void require_finite(const std::vector<double> &trace, const char *what, size_t i
 {
     for (size_t n = 0; n < trace.size(); n++)
         if (!std::isfinite(trace[n]))
-            throw std::runtime_error(std::string(what) + " " + std::to_string(index) + ": non-finite displacement at step " +
-                                     std::to_string(n) + " (the simulation diverged)");
+            throw std::runtime_error(std::string(what) + " " + std::to_string(index) +
+                                     ": non-finite displacement at step " + std::to_string(n) +
+                                     " (the simulation diverged)");
 }
 
-}  // namespace
+} // namespace
 
 namespace {
 
@@ -55,22 +56,22 @@ engine::Simulation drive(const CalibrationInput &in, const std::vector<Point> &e
             ch[i] = frames[i * channels + c];
         const size_t src = sim.add_source(exciters[c].x_m, exciters[c].y_m);
         std::vector<double> force = drive_force(ch, rate_hz, 1.0 / k, in.exciters.force_full_scale_n);
-        if (in.effects.exciter)  // the drive is Bl i; the plate gets the exciter's blocked force
+        if (in.effects.exciter) // the drive is Bl i; the plate gets the exciter's blocked force
             force = engine::effects::blocked_force(force, 1.0 / k, *in.effects.exciter);
         sim.set_source_signal(src, std::move(force));
     }
     for (const FocusPoint &f : in.foci.points)
         sim.add_receiver(f.at.x_m, f.at.y_m);
-    if (in.effects.finger)  // playback: the finger presses while the signals play, not during calibration
+    if (in.effects.finger) // playback: the finger presses while the signals play, not during calibration
         sim.add_finger(*in.effects.finger);
     sim.run(steps);
     return sim;
 }
 
-}  // namespace
+} // namespace
 
 Verification verify_signals_forward(const CalibrationInput &in, const std::vector<Point> &exciters,
-                            const std::vector<std::vector<int16_t>> &signals, double rate_hz,
+                                    const std::vector<std::vector<int16_t>> &signals, double rate_hz,
                                     const ProgressFn &progress, bool snapshots)
 {
     const size_t K = in.foci.points.size();
@@ -128,15 +129,14 @@ Verification verify_signals_forward(const CalibrationInput &in, const std::vecto
                 for (int j = 0; j <= g.ny; j++)
                     for (int i = 0; i <= g.nx; i++)
                         if (dist(Point{i * g.h, j * g.h}, m.at) > lambda_half)
-                            m.max_elsewhere_m = std::max(m.max_elsewhere_m,
-                                                         static_cast<double>(v.snapshots[f][g.node(i, j)]));
+                            m.max_elsewhere_m =
+                                std::max(m.max_elsewhere_m, static_cast<double>(v.snapshots[f][g.node(i, j)]));
                 m.field_contrast_db = 20 * std::log10(m.peak_m / std::max(m.max_elsewhere_m, 1e-300));
             }
             bool others = false;
             for (size_t gi = 0; gi < K; gi++)
                 others |= is_other_focus(in, f, gi, lambda_half);
-            m.other_foci_contrast_db =
-                others ? 20 * std::log10(m.peak_m / std::max(m.max_other_foci_m, 1e-300)) : 0.0;
+            m.other_foci_contrast_db = others ? 20 * std::log10(m.peak_m / std::max(m.max_other_foci_m, 1e-300)) : 0.0;
             m.crosses_threshold = m.peak_m >= in.calibration.threshold_m;
             m.others_below_threshold = m.max_other_foci_m < in.calibration.threshold_m;
             if (f == 0)
@@ -158,16 +158,16 @@ Verification verify_signals_forward(const CalibrationInput &in, const std::vecto
 }
 
 Verification verify_drive_forward(const CalibrationInput &in, const std::vector<Point> &exciters,
-                          const std::vector<float> &frames, unsigned channels, double rate_hz,
-                          const ProgressFn &progress)
+                                  const std::vector<float> &frames, unsigned channels, double rate_hz,
+                                  const ProgressFn &progress)
 {
     if (channels != exciters.size())
         throw std::invalid_argument("drive has " + std::to_string(channels) + " channels for " +
                                     std::to_string(exciters.size()) + " exciters");
     const size_t K = in.foci.points.size();
     engine::Simulation probe(in.plate, single_core_options(in));
-    const size_t steps = probe.steps_for(static_cast<double>(frames.size() / channels) / rate_hz +
-                                         in.calibration.verify_tail_s);
+    const size_t steps =
+        probe.steps_for(static_cast<double>(frames.size() / channels) / rate_hz + in.calibration.verify_tail_s);
     if (progress)
         progress("verify drive", 0, 1);
     engine::Simulation sim = drive(in, exciters, frames, channels, rate_hz, steps);
@@ -193,4 +193,4 @@ Verification verify_drive_forward(const CalibrationInput &in, const std::vector<
     return v;
 }
 
-}  // namespace calib::pipeline
+} // namespace calib::pipeline
