@@ -39,10 +39,14 @@ void hs_files(struct hs_files *f, const char *stem)
     snprintf(f->device, sizeof f->device, "hostsim:FILE=\"%s\"", f->wav);
 }
 
-pid_t hs_spawn(char *const argv[], const char *stderr_path)
+pid_t hs_spawn(char *const argv[], const char *stderr_path) { return hs_spawn_out(argv, NULL, stderr_path); }
+
+pid_t hs_spawn_out(char *const argv[], const char *stdout_path, const char *stderr_path)
 {
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
+    if (stdout_path)
+        posix_spawn_file_actions_addopen(&fa, 1, stdout_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_addopen(&fa, 2, stderr_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     pid_t pid;
     assert_int_equal(posix_spawn(&pid, HAPTICD_EXE, &fa, NULL, argv, environ), 0);

@@ -26,6 +26,8 @@ struct hs_files {
 void hs_files(struct hs_files *f, const char *stem);
 /* hapticd with argv, its stderr into stderr_path. */
 pid_t hs_spawn(char *const argv[], const char *stderr_path);
+/* The same with its stdout into stdout_path (NULL: inherited). */
+pid_t hs_spawn_out(char *const argv[], const char *stdout_path, const char *stderr_path);
 /* hapticd live on f's board and table with triggers from f's FIFO (made
  * anew) and the host-sim device, with f's latency report when `report`;
  * returns once it runs, the FIFO open for writing in *fd. */

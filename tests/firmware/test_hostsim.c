@@ -16,7 +16,6 @@
 #include <math.h>
 #include <signal.h>
 #include <sndfile.h>
-#include <spawn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -483,6 +482,16 @@ static void assert_plays_at(const int32_t *w, sf_count_t at, const struct fw_tab
         }
 }
 
+/* hapticd with argv (a --check), its stdout into hs_dir/name (path in out)
+ * and its stderr into out + ".err"; the exit status. */
+static int check_into(char *const argv[], const char *name, char *out, size_t cap)
+{
+    hs_path(out, cap, name);
+    char err[320];
+    snprintf(err, sizeof err, "%s.err", out);
+    return hs_wait_exit(hs_spawn_out(argv, out, err));
+}
+
 /* A table with the foci's safe ranges (format 1.3), scripted at the level
  * 0 dB: focus 0's range [1.25, 2) lies above it (it plays at +1.9 dB), focus
  * 1's [0.25, 0.5) below (it plays at its top, 0.5 (1 - 1e-6)); both
@@ -521,35 +530,12 @@ static void scripted_safe_range_clamps_the_level(void **state)
     /* --check: the summary's range. */
     char *check[] = {"hapticd", "--check", f.table, NULL};
     char out[300];
-    hs_path(out, sizeof out, "range-check.txt");
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    pid_t pid;
-    assert_int_equal(posix_spawn(&pid, HAPTICD_EXE, &fa, NULL, check, environ), 0);
-    posix_spawn_file_actions_destroy(&fa);
-    assert_int_equal(hs_wait_exit(pid), 0);
+    assert_int_equal(check_into(check, "range-check.txt", out, sizeof out), 0);
     assert_true(hs_file_contains(out, "format 1.3"));
     assert_true(hs_file_contains(out, "range        threshold 1 um over the whole active area (scope 1)"));
     assert_true(hs_file_contains(out, "safe +1.9..+6.0 dB\n"));
     assert_true(hs_file_contains(out, "safe -12.0..-6.0 dB\n"));
     fw_table_free(&t);
-}
-
-/* `hapticd --check TABLE` with its output in hs_dir/name; the exit status. */
-static int check_into(char *const argv[], const char *name, char *out, size_t cap)
-{
-    hs_path(out, cap, name);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    char err[320];
-    snprintf(err, sizeof err, "%s.err", out);
-    posix_spawn_file_actions_addopen(&fa, 2, err, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    pid_t pid;
-    assert_int_equal(posix_spawn(&pid, HAPTICD_EXE, &fa, NULL, argv, environ), 0);
-    posix_spawn_file_actions_destroy(&fa);
-    return hs_wait_exit(pid);
 }
 
 /* `hapticd --check TABLE --board BOARD`: what each focus costs the board's
