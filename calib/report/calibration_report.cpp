@@ -195,30 +195,6 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
 
 namespace {
 
-std::string esc(const std::string &s)
-{
-    std::string o;
-    for (char ch : s) {
-        switch (ch) {
-        case '<':
-            o += "&lt;";
-            break;
-        case '>':
-            o += "&gt;";
-            break;
-        case '&':
-            o += "&amp;";
-            break;
-        case '"':
-            o += "&quot;";
-            break;
-        default:
-            o += ch;
-        }
-    }
-    return o;
-}
-
 // Plate coordinates -> SVG pixels (y up on the plate, down in SVG).
 struct View {
     double scale, lx, ly, pad = 20;
@@ -383,19 +359,20 @@ void write_html_report(const std::string &dir, const ReportContext &c)
     char date[32];
     const std::time_t now = std::time(nullptr);
     std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-    h << "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>calibration report: " << esc(in.scene_name)
+    h << "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>calibration report: "
+      << canvas::xml_escape(in.scene_name)
       << "</title><style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}"
          "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}"
          "th{background:#f4f4f4}.ok{color:#17803d}.bad{color:#c0262d;font-weight:bold}"
          ".grid{display:flex;flex-wrap:wrap;gap:12px}.cell{border:1px solid #ddd;padding:6px}"
          "figcaption{font-size:0.9em;color:#555}</style></head><body>";
-    h << "<h1>Calibration report: " << esc(in.scene_name) << "</h1><p>Scene <code>" << esc(c.scene_path) << "</code> ("
-      << esc(in.scene_hash) << "), table <code>" << esc(c.table_path) << "</code>, " << date << ". Plate "
-      << num(in.plate->params().size_x_m * 1e3) << " x " << num(in.plate->params().size_y_m * 1e3) << " x "
-      << num(in.plate->params().thickness_m * 1e3, 2) << " mm " << esc(in.plate->params().material.name) << ", grid "
-      << in.plate->grid().nx << " x " << in.plate->grid().ny << " cells of " << num(in.plate->grid().h * 1e3)
-      << " mm. Exciter force at full scale " << num(in.exciters.force_full_scale_n) << " N, threshold "
-      << num(in.calibration.threshold_m * 1e6) << " um.";
+    h << "<h1>Calibration report: " << canvas::xml_escape(in.scene_name) << "</h1><p>Scene <code>"
+      << canvas::xml_escape(c.scene_path) << "</code> (" << canvas::xml_escape(in.scene_hash) << "), table <code>"
+      << canvas::xml_escape(c.table_path) << "</code>, " << date << ". Plate " << num(in.plate->params().size_x_m * 1e3)
+      << " x " << num(in.plate->params().size_y_m * 1e3) << " x " << num(in.plate->params().thickness_m * 1e3, 2)
+      << " mm " << canvas::xml_escape(in.plate->params().material.name) << ", grid " << in.plate->grid().nx << " x "
+      << in.plate->grid().ny << " cells of " << num(in.plate->grid().h * 1e3) << " mm. Exciter force at full scale "
+      << num(in.exciters.force_full_scale_n) << " N, threshold " << num(in.calibration.threshold_m * 1e6) << " um.";
     if (c.result)
         h << " Run time " << num(c.total_s, 3) << " s (simulation " << num(c.result->times.simulation_s, 2)
           << " s, search " << num(c.result->times.search_s, 2) << " s, signals " << num(c.result->times.signals_s, 2)
