@@ -46,7 +46,7 @@ int hd_exciter_report(const struct hd_program *p, const struct hd_board *b, cons
     for (uint32_t f = 0; f < p->focus_count; f++) {
         haptic_focus_info info;
         haptic_table_focus(&p->table, f, &info);
-        struct hd_voice_cost cost;
+        struct hd_voice_cost cost = {0};
         const uint32_t c = busiest(&pr, p, f, 1.0, &cost);
         fprintf(out,
                 "  focus %u: exciter %u (%.3g W rated, tau %.3g s): %.4g mJ a touch, heat +%.4g mW, %.4g touches/s",
@@ -62,7 +62,7 @@ int hd_exciter_report(const struct hd_program *p, const struct hd_board *b, cons
             fprintf(out, "; its safe range has no top");
         } else if (p->range) {
             const double top = haptic_gain_range_clamp(&p->range[f], INFINITY);
-            struct hd_voice_cost at_top;
+            struct hd_voice_cost at_top = {0};
             busiest(&pr, p, f, top, &at_top);
             fprintf(out, "; at the top of its safe range (%+.1f dB) %.4g mJ, %.4g touches/s", 20 * log10(top),
                     1e3 * at_top.joules, at_top.sustained_hz);
