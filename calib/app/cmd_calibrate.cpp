@@ -529,7 +529,7 @@ void register_verify(CLI::App &app, int &exit_code)
     auto a = std::make_shared<VerifyArgs>();
     CLI::App *cmd = app.add_subcommand(
         "verify", "Forward-simulate a table's quantized signals (or a device recording) and measure every focus; "
-                  "exit 3 when a criterion is not met");
+                  "exit 3 when a focus fails the verdict");
     cmd->add_option("scene", a->scene, "Scene file (TOML)")->required();
     cmd->add_option("table", a->table, "Table (.htab)")->required();
     cmd->add_option("--report", a->report, "Directory for metrics.json and index.html");

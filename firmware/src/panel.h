@@ -2,8 +2,10 @@
  * for: the speed compensation (common/haptic_stretch.h, docs/firmware.md
  * "[panel]").
  *
- * A panel whose bending waves run alpha times as fast as the calibrated
- * plate's gets the table's drives alpha times faster: the same focus, the
+ * A panel whose response runs alpha times as fast as the calibrated plate's
+ * (every resonance alpha times the calibrated one's: the speed ratio,
+ * docs/glossary.md; its bending waves run sqrt(alpha) times as fast at one
+ * frequency) gets the table's drives alpha times faster: the same focus, the
  * same contrast. alpha = speed_ratio * sqrt(1 + k (T - T0)): the board's
  * speed ratio (the panel's own, measured at the calibration temperature),
  * then Young's modulus moved by the temperature T read from a sensor, with

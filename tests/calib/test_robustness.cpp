@@ -374,7 +374,7 @@ TEST(Robustness, SpeedCompensationPlaysTheNominalFieldOnAFasterOrSlowerPanel)
         }
     }
     EXPECT_EQ(first_line_of_refusal(base_scene + "\n[tolerance]\nthickness_rel = 0.3\nspeed_compensation = true\n"),
-              "tolerance.speed_compensation: d -30 % makes the waves 0.700 times as fast, beyond what a device "
+              "tolerance.speed_compensation: d -30 % makes the response run 0.700 times as fast, beyond what a device "
               "stretches (0.8-1.25)");
     try {
         input(base_scene + "\n[tolerance]\nspeed_compensation = 1\n");

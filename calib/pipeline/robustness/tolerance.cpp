@@ -112,7 +112,7 @@ void check_tolerance(const CalibrationInput &in, const ToleranceSpec &t)
         for (const Perturbation &p : plates) {
             const double alpha = p.thickness_scale * std::sqrt(p.youngs_scale / p.density_scale);
             if (!(alpha >= HAPTIC_STRETCH_MIN_RATIO && alpha <= HAPTIC_STRETCH_MAX_RATIO))
-                throw std::invalid_argument("tolerance.speed_compensation: " + p.name + " makes the waves " +
+                throw std::invalid_argument("tolerance.speed_compensation: " + p.name + " makes the response run " +
                                             fmt("%.3f", alpha) + " times as fast, beyond what a device stretches (" +
                                             fmt("%g", HAPTIC_STRETCH_MIN_RATIO) + "-" +
                                             fmt("%g", HAPTIC_STRETCH_MAX_RATIO) + ")");
