@@ -38,6 +38,13 @@ uint32_t haptic_mix_peak_bound(const uint16_t *const *envelopes, uint32_t count,
 void haptic_mix_gain_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j), const void *ctx, uint32_t count,
                         uint32_t peak_bound, double level, double gain_limit, haptic_mix_gain *out)
 {
+    haptic_mix_gain_in_range_of(gram, ctx, count, peak_bound, level, NULL, gain_limit, out);
+}
+
+void haptic_mix_gain_in_range_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j), const void *ctx,
+                                 uint32_t count, uint32_t peak_bound, double level, const haptic_gain_range *range,
+                                 double gain_limit, haptic_mix_gain *out)
+{
     double e_ref = 0.0, e_sum = 0.0;
     for (uint32_t i = 0; i < count; i++)
         for (uint32_t j = 0; j < count; j++) {
@@ -52,6 +59,8 @@ void haptic_mix_gain_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j),
     out->energy = e_sum > 0.0 ? sqrt(e_ref / e_sum) : 0.0;
     out->peak = peak_bound > 0 ? 32767.0 / peak_bound : gain_limit;
     double g = level * out->energy;
+    if (range && out->energy > 0.0) /* energy 0: the foci cancel, silent at any gain */
+        g = haptic_gain_range_clamp(range, g);
     if (g > out->peak)
         g = out->peak;
     if (g > gain_limit)

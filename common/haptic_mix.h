@@ -24,6 +24,8 @@
 #ifndef HAPTIC_MIX_H
 #define HAPTIC_MIX_H
 
+#include "haptic_table.h" /* haptic_gain_range */
+
 #include <stdint.h>
 
 #ifdef __cplusplus
@@ -53,6 +55,15 @@ typedef struct haptic_mix_gain {
  * (i, j < count), peak_bound their P(S). count >= 1, level >= 0. */
 void haptic_mix_gain_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j), const void *ctx, uint32_t count,
                         uint32_t peak_bound, double level, double gain_limit, haptic_mix_gain *out);
+
+/* The same law with a safe range (haptic_table.h, format 1.3; NULL: none):
+ * the gain every focus of the voice is played at, level x g_energy, is
+ * clamped into it (haptic_gain_range_clamp) before the peak limit and
+ * gain_limit, which only lower it: g = min(clamp(level g_energy), g_peak,
+ * gain_limit). One focus has g_energy = 1: its level itself is clamped. */
+void haptic_mix_gain_in_range_of(double (*gram)(const void *ctx, uint32_t i, uint32_t j), const void *ctx,
+                                 uint32_t count, uint32_t peak_bound, double level, const haptic_gain_range *range,
+                                 double gain_limit, haptic_mix_gain *out);
 
 /* A gain in the fixed point it is applied in: round(g * 2^30). */
 int64_t haptic_mix_q30(double gain);

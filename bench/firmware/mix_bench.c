@@ -24,6 +24,17 @@
 #include <string.h>
 #include <unistd.h>
 
+/* Exciter ratings that never bind (1000 W into 4 ohm behind 10 V): the
+ * protection computes everything, lowers nothing. */
+static void never_binding_ratings(struct hd_board *b)
+{
+    b->exciters.enabled = true;
+    b->exciters.power_count = b->exciters.impedance_count = 1;
+    b->exciters.rated_power_w[0] = 1000.0;
+    b->exciters.impedance_ohm[0] = 4.0;
+    b->amp_full_scale_v = 10.0;
+}
+
 static int cmp_i64(const void *a, const void *b)
 {
     const int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
@@ -42,11 +53,7 @@ static double percentile_us(int64_t *v, size_t n, double q)
 static int trigger_path(const struct hd_program *p, struct hd_board *b)
 {
     struct hd_board on = *b;
-    on.exciters.enabled = true;
-    on.exciters.power_count = on.exciters.impedance_count = 1;
-    on.exciters.rated_power_w[0] = 1000.0;
-    on.exciters.impedance_ohm[0] = 4.0;
-    on.amp_full_scale_v = 10.0;
+    never_binding_ratings(&on);
     struct hd_player pl[2];
     if (hd_player_init(&pl[0], b) || hd_player_init(&pl[1], &on))
         return 1;
@@ -112,13 +119,8 @@ int main(void)
     printf("foci  protect  ns/period  ns/sample  start_us\n");
     const uint32_t K[] = {1, 3, 9};
     for (int protect = 0; protect < 2; protect++) {
-        if (protect) {
-            b.exciters.enabled = true;
-            b.exciters.power_count = b.exciters.impedance_count = 1;
-            b.exciters.rated_power_w[0] = 1000.0;
-            b.exciters.impedance_ohm[0] = 4.0;
-            b.amp_full_scale_v = 10.0;
-        }
+        if (protect)
+            never_binding_ratings(&b);
         for (int i = 0; i < 3; i++) {
             double best_period = 1e300, best_start = 1e300;
             for (int run = 0; run < 7; run++) {
@@ -153,7 +155,7 @@ int main(void)
                    best_period / (b.period_frames * b.channels), best_start);
         }
     }
-    b.exciters.enabled = false;
+    b.exciters.enabled = false; /* trigger_path sets them on one side */
     b.amp_full_scale_v = 0.0;
     const int rc = trigger_path(p, &b);
     hd_program_free(p);

@@ -85,27 +85,31 @@ static void usage(FILE *f)
 }
 
 /* --check: the table's summary; with a board, also whether the board takes
- * it (rate, channels) and what each focus costs its exciters. */
+ * it (rate, channels) and what each focus costs its exciters. The table is
+ * read once: by the program when a board is given. */
 static int check_table(const char *path, const char *board_path)
 {
-    haptic_table t;
-    haptic_table_error err;
-    if (haptic_table_open(path, &t, &err) != 0) {
-        fprintf(stderr, "hapticd: %s: %s\n", path, err.message);
-        return 1;
-    }
-    haptic_table_print_summary(&t, path, stdout);
-    haptic_table_close(&t);
-    if (!board_path)
+    if (!board_path) {
+        haptic_table t;
+        haptic_table_error err;
+        if (haptic_table_open(path, &t, &err) != 0) {
+            fprintf(stderr, "hapticd: %s: %s\n", path, err.message);
+            return 1;
+        }
+        haptic_table_print_summary(&t, path, stdout);
+        haptic_table_close(&t);
         return 0;
+    }
     static struct hd_board board;
     struct hd_program *p = NULL;
     char why[HD_ERR_MAX];
     int rc = hd_board_load(board_path, &board, why);
     if (rc == 0)
         rc = hd_program_load(path, &board, &p, why);
-    if (rc == 0)
+    if (rc == 0) {
+        haptic_table_print_summary(&p->table, path, stdout);
         rc = hd_exciter_report(p, &board, board_path, stdout, why);
+    }
     hd_program_free(p);
     if (rc != 0) {
         fprintf(stderr, "hapticd: %s\n", why);
@@ -367,15 +371,12 @@ static int poll_control(struct daemon *d)
     d->control_failing = 0;
     const double level = pow(10.0, db / 20.0);
     hd_player_set_level(&d->engine.player, level);
-    char note[HD_ERR_MAX];
-    const int clamped = hd_program_range_note(d->tables.latest, level, note, sizeof note) > 0;
-    if (level > d->board.gain_limit)
+    const int above_limit = level > d->board.gain_limit;
+    if (above_limit)
         hd_log(LOG_INFO, "intensity %+.1f dB: above [mixer] gain_limit (%+.1f dB), voices play at most at it", db,
                20 * log10(d->board.gain_limit));
-    else if (!clamped)
+    if (!hd_table_policy_log_range(&d->tables, level) && !above_limit)
         hd_log(LOG_INFO, "intensity %+.1f dB", db);
-    if (clamped)
-        hd_log(LOG_INFO, "%s", note);
     return 1;
 }
 

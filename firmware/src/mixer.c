@@ -45,11 +45,7 @@ int hd_mixer_gain_in_range(const struct hd_program *p, double level, const hapti
     const struct gram_ctx ctx = {p, m->index};
     const uint32_t peak_bound = haptic_mix_peak_bound(envelopes, m->count, p->blocks, p->channel_count);
     haptic_mix_gain g;
-    haptic_mix_gain_of(gram_of, &ctx, m->count, peak_bound, level, gain_limit, &g);
-    /* g_energy 0: the foci cancel, the mix is silent at any gain. */
-    if (range && g.energy > 0.0)
-        haptic_mix_gain_of(gram_of, &ctx, m->count, peak_bound,
-                           haptic_gain_range_clamp(range, level * g.energy) / g.energy, gain_limit, &g);
+    haptic_mix_gain_in_range_of(gram_of, &ctx, m->count, peak_bound, level, range, gain_limit, &g);
     m->gain_energy = g.energy;
     m->gain_peak = g.peak;
     m->gain = g.gain;

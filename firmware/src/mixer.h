@@ -23,12 +23,8 @@ struct hd_mix {
 int hd_mixer_gain(const struct hd_program *p, double level, double gain_limit, struct hd_mix *m);
 
 /* The same within the voice's safe range (hd_program_voice_range; NULL:
- * none, as hd_mixer_gain). The range bounds the gain every focus of the
- * voice is played at (the stored samples times it), so it is the energy
- * gain level x g_energy that is clamped (haptic_gain_range_clamp): the law
- * then runs at the level that gives the clamped gain, and the peak limit and
- * gain_limit, which only lower it, bind as ever. One focus has g_energy = 1:
- * its level itself is clamped. Real-time safe. */
+ * none, as hd_mixer_gain): the law with the range
+ * (haptic_mix_gain_in_range_of). Real-time safe. */
 int hd_mixer_gain_in_range(const struct hd_program *p, double level, const haptic_gain_range *range, double gain_limit,
                            struct hd_mix *m);
 

@@ -74,11 +74,13 @@ static int hand_over(struct hd_table_policy *tp, struct hd_program *p, double ce
     return 0;
 }
 
-void hd_table_policy_log_range(const struct hd_table_policy *tp, double level)
+int hd_table_policy_log_range(const struct hd_table_policy *tp, double level)
 {
     char note[HD_ERR_MAX];
-    if (tp->latest && hd_program_range_note(tp->latest, level, note, sizeof note) > 0)
+    const int moved = tp->latest ? hd_program_range_note(tp->latest, level, note, sizeof note) : 0;
+    if (moved > 0)
         hd_log(LOG_INFO, "%s", note);
+    return moved;
 }
 
 int hd_table_policy_open(struct hd_table_policy *tp, const struct hd_board *b, const char *path, double now_s,

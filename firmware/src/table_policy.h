@@ -59,8 +59,9 @@ void hd_table_policy_attach(struct hd_table_policy *tp, struct hd_engine *e,
                             void (*handed_over)(void *ctx, const struct hd_program *p), void *ctx);
 
 /* Logs what the clamp into the safe ranges of the latest table does at
- * `level` (hd_program_range_note), nothing when it does nothing. */
-void hd_table_policy_log_range(const struct hd_table_policy *tp, double level);
+ * `level` (hd_program_range_note), nothing when it does nothing. Returns
+ * the number of foci it moves. */
+int hd_table_policy_log_range(const struct hd_table_policy *tp, double level);
 
 /* SIGHUP. 0: the file, stretched for the current temperature, was handed
  * over; otherwise refused (logged), the current table keeps playing. */
