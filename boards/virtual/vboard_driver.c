@@ -618,6 +618,189 @@ static void check_storm(struct run *r)
     vb_capture_close(&r->cap);
 }
 
+/* ---- hapticd --measure: the plan played on hw:Loopback,0,0, recorded on
+ * hw:Loopback,1,0 (its loop), linked ---- */
+
+#define MEASURE_BOARD_PATH "/tmp/vboard-measure.ini"
+#define MEASURE_LOG_PATH "/tmp/hapticd-measure.log"
+#define MEASURE_PLAN_PATH "/tmp/vboard-plan.wav"
+#define MEASURE_REC_PATH "/tmp/vboard-rec.wav"
+#define MEASURE_FRAMES 48000u /* 1 s */
+#define MEASURE_RUNS 3
+
+static void put_le(uint8_t *p, uint32_t v, int bytes)
+{
+    for (int i = 0; i < bytes; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+
+/* Impulse of exciter k: 20000 + k at frame 1001 + 5003 k, over +-40 counts of noise. */
+static uint32_t measure_impulse_at(unsigned k) { return 1001u + 5003u * k; }
+
+static int write_plan(const char *path, unsigned channels, int16_t *s)
+{
+    uint32_t x = 99;
+    for (size_t i = 0; i < (size_t)MEASURE_FRAMES * channels; i++) {
+        x = x * 1664525u + 1013904223u;
+        s[i] = (int16_t)((int)(x >> 24) % 81 - 40);
+    }
+    for (unsigned k = 0; k < channels; k++)
+        s[(size_t)measure_impulse_at(k) * channels + k] = (int16_t)(20000 + k);
+    const uint32_t bytes = MEASURE_FRAMES * channels * 2;
+    uint8_t h[44];
+    memcpy(h, "RIFF", 4);
+    put_le(h + 4, 36 + bytes, 4);
+    memcpy(h + 8, "WAVEfmt ", 8);
+    put_le(h + 16, 16, 4);
+    put_le(h + 20, 1, 2);
+    put_le(h + 22, channels, 2);
+    put_le(h + 24, 48000, 4);
+    put_le(h + 28, 48000 * channels * 2, 4);
+    put_le(h + 32, channels * 2, 2);
+    put_le(h + 34, 16, 2);
+    memcpy(h + 36, "data", 4);
+    put_le(h + 40, bytes, 4);
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return -errno;
+    int ok = fwrite(h, 1, sizeof h, f) == sizeof h && fwrite(s, 2, (size_t)MEASURE_FRAMES * channels, f) ==
+                                                          (size_t)MEASURE_FRAMES * channels; /* little-endian host */
+    return fclose(f) == 0 && ok ? 0 : -EIO;
+}
+
+/* hapticd --measure on `board`; its exit status (-1: killed at 60 s). */
+static int run_measure(struct run *r, const char *board)
+{
+    char *argv[] = {(char *)r->hapticd, "--board",   (char *)board,    "--measure",
+                    MEASURE_PLAN_PATH,  "--capture", MEASURE_REC_PATH, NULL};
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 2, MEASURE_LOG_PATH, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&fa, 2, 1);
+    pid_t pid;
+    int rc = posix_spawn(&pid, r->hapticd, &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc)
+        return -1;
+    for (int i = 0; i < 1200; i++) {
+        int st;
+        if (waitpid(pid, &st, WNOHANG) == pid)
+            return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+        sleep_ms(50);
+    }
+    kill(pid, SIGKILL);
+    waitpid(pid, NULL, 0);
+    return -1;
+}
+
+/* Each impulse's offset in the recording from its plan frame (the same for
+ * all channels when aligned); *exact: the whole recording equals the plan
+ * shifted by that offset. Returns the number of channels whose impulse
+ * was found with the same offset as channel 0. */
+static unsigned measure_offsets(const int16_t *plan, unsigned channels, long *offset, int *exact)
+{
+    FILE *f = fopen(MEASURE_REC_PATH, "rb");
+    static int32_t rec[MEASURE_FRAMES * 8];
+    uint8_t h[44];
+    *exact = 0;
+    if (!f)
+        return 0;
+    size_t got = fread(h, 1, sizeof h, f) == sizeof h && !memcmp(h + 36, "data", 4)
+                     ? fread(rec, 4 * channels, MEASURE_FRAMES, f)
+                     : 0;
+    fclose(f);
+    if (got != MEASURE_FRAMES || channels > 8)
+        return 0;
+    unsigned same = 0;
+    for (unsigned k = 0; k < channels; k++) {
+        long best = -1;
+        int32_t peak = 0;
+        for (size_t n = 0; n < MEASURE_FRAMES; n++)
+            if (abs(rec[n * channels + k] / 65536) > peak) {
+                peak = abs(rec[n * channels + k] / 65536);
+                best = (long)n;
+            }
+        long off = best - (long)measure_impulse_at(k);
+        if (k == 0)
+            *offset = off;
+        same += off == *offset && peak == (int32_t)(20000 + k);
+    }
+    *exact = 1;
+    for (size_t n = 0; n < MEASURE_FRAMES; n++)
+        for (unsigned k = 0; k < channels; k++) {
+            long j = (long)n - *offset;
+            int32_t want = j >= 0 && j < (long)MEASURE_FRAMES ? plan[(size_t)j * channels + k] * 65536 : 0;
+            if (rec[n * channels + k] != want)
+                *exact = 0;
+        }
+    return same;
+}
+
+static void check_measure(struct run *r)
+{
+    const char *name = "measure aligned";
+    const unsigned C = r->table.channel_count;
+    const char *base = read_text(r->board);
+    FILE *b = fopen(MEASURE_BOARD_PATH, "w");
+    if (!base || !b || C > 8) {
+        vb_result(0, name, "writing %s: %s", MEASURE_BOARD_PATH, strerror(errno));
+        if (b)
+            fclose(b);
+        return;
+    }
+    fprintf(b, "%s\n[capture]\ndevice = %s\nchannels = %u\nformat = S32_LE\nrate_hz = 48000\n", base, CAPTURE_PCM, C);
+    fclose(b);
+    static int16_t plan[MEASURE_FRAMES * 8];
+    if (write_plan(MEASURE_PLAN_PATH, C, plan) != 0) {
+        vb_result(0, name, "writing %s", MEASURE_PLAN_PATH);
+        return;
+    }
+    char offsets[256] = "";
+    int all_ok = 1, all_exact = 1;
+    long first = 0;
+    for (int run = 0; run < MEASURE_RUNS; run++) {
+        unlink(MEASURE_REC_PATH);
+        int st = run_measure(r, MEASURE_BOARD_PATH);
+        long off = 0;
+        int exact = 0;
+        unsigned same = st == 0 ? measure_offsets(plan, C, &off, &exact) : 0;
+        if (run == 0)
+            first = off;
+        if (st != 0 || same != C) {
+            all_ok = 0;
+            printf("hapticd --measure (run %d, exit %d):\n%s", run, st, read_text(MEASURE_LOG_PATH));
+        }
+        all_exact &= exact;
+        size_t n = strlen(offsets);
+        snprintf(offsets + n, sizeof offsets - n, "%s%ld%s", run ? ", " : "", off, exact ? "" : " (not exact)");
+        if (off != first)
+            all_ok = 0;
+    }
+    printf("hapticd --measure log (last run):\n%s", read_text(MEASURE_LOG_PATH) ? read_text(MEASURE_LOG_PATH) : "");
+    vb_result(all_ok && first == 0 && all_exact, name,
+              "%d runs, linked playback/capture on snd-aloop: each exciter's impulse at its plan frame %s; offsets "
+              "(recording - plan, frames) %s; whole recording equal to the plan: %s",
+              MEASURE_RUNS, all_ok && first == 0 ? "exactly" : "NOT exactly", offsets, all_exact ? "yes" : "no");
+
+    /* The capture device busy (this driver holds it): one hapticd line, nothing written. */
+    snd_pcm_t *busy;
+    int rc = snd_pcm_open(&busy, CAPTURE_PCM, SND_PCM_STREAM_CAPTURE, SND_PCM_NONBLOCK);
+    if (rc < 0) {
+        vb_result(0, "measure capture busy", "opening %s: %s", CAPTURE_PCM, snd_strerror(rc));
+        return;
+    }
+    unlink(MEASURE_REC_PATH);
+    int st = run_measure(r, MEASURE_BOARD_PATH);
+    snd_pcm_close(busy);
+    const char *text = read_text(MEASURE_LOG_PATH);
+    unsigned lines = 0;
+    for (const char *p = text; p && *p; p++)
+        lines += *p == '\n';
+    const int ok = st == 1 && text && strstr(text, "busy") && lines == 1 && !strstr(text, "ALSA lib") &&
+                   access(MEASURE_REC_PATH, F_OK) != 0;
+    vb_result(ok, "measure capture busy", "exit %d, %u line(s): %s", st, lines, text ? text : "");
+}
+
 static int run(struct run *r)
 {
     haptic_table_error err;
@@ -676,6 +859,7 @@ static int run(struct run *r)
     printf("hapticd log:\n%s", read_text(r->log) ? read_text(r->log) : "");
     vb_capture_close(&r->cap); /* the card cannot go while we hold it open */
     check_storm(r);
+    check_measure(r);
     check_failing_device(r); /* last: the card is gone after it */
     vb_touch_close(&r->panel);
     haptic_table_close(&r->table);

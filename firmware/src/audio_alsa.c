@@ -320,6 +320,76 @@ void hd_audio_close(struct hd_audio *a, int drain)
     memset(a, 0, sizeof *a);
 }
 
+/* ---- capture ---- */
+
+int hd_capture_open(struct hd_capture *c, const struct hd_board *b, snd_config_t *lconf,
+                    snd_pcm_uframes_t period_frames, snd_pcm_uframes_t buffer_frames, char err[HD_ERR_MAX])
+{
+    memset(c, 0, sizeof *c);
+    const struct hd_capture_board *k = &b->capture;
+    c->channels = k->channels;
+    c->rate_hz = k->rate_hz;
+    c->frame_bytes = (size_t)k->channels * (k->format == HD_FMT_S16_LE ? 2 : 4);
+    int rc = lconf ? snd_pcm_open_lconf(&c->pcm, k->device, SND_PCM_STREAM_CAPTURE, SND_PCM_NONBLOCK, lconf)
+                   : snd_pcm_open(&c->pcm, k->device, SND_PCM_STREAM_CAPTURE, SND_PCM_NONBLOCK);
+    if (rc < 0) {
+        snprintf(err, HD_ERR_MAX, "cannot open ALSA capture device '%s' ([capture] device in %s): %s%s", k->device,
+                 b->path, snd_strerror(rc), rc == -EBUSY ? " (another program is using it)" : "");
+        c->pcm = NULL;
+        return rc;
+    }
+    snd_pcm_hw_params_t *hw;
+    snd_pcm_sw_params_t *sw;
+    snd_pcm_hw_params_alloca(&hw);
+    snd_pcm_sw_params_alloca(&sw);
+    const char *what = "";
+    unsigned rate = k->rate_hz;
+    snd_pcm_uframes_t period = period_frames, buffer = buffer_frames;
+    snd_pcm_format_t fmt = k->format == HD_FMT_S16_LE ? SND_PCM_FORMAT_S16_LE : SND_PCM_FORMAT_S32_LE;
+    if ((rc = snd_pcm_hw_params_any(c->pcm, hw)) < 0)
+        what = "hw_params_any";
+    else if ((rc = snd_pcm_hw_params_set_rate_resample(c->pcm, hw, 0)) < 0)
+        what = "rate_resample off";
+    else if ((rc = snd_pcm_hw_params_set_access(c->pcm, hw, SND_PCM_ACCESS_RW_INTERLEAVED)) < 0)
+        what = "interleaved access";
+    else if ((rc = snd_pcm_hw_params_set_format(c->pcm, hw, fmt)) < 0)
+        what = "[capture] format";
+    else if ((rc = snd_pcm_hw_params_set_channels(c->pcm, hw, k->channels)) < 0)
+        what = "[capture] channels";
+    else if ((rc = snd_pcm_hw_params_set_rate(c->pcm, hw, rate, 0)) < 0)
+        what = "[capture] rate_hz";
+    else if ((rc = snd_pcm_hw_params_set_period_size_near(c->pcm, hw, &period, NULL)) < 0)
+        what = "period size";
+    else if ((rc = snd_pcm_hw_params_set_buffer_size_near(c->pcm, hw, &buffer)) < 0)
+        what = "buffer size";
+    else if ((rc = snd_pcm_hw_params(c->pcm, hw)) < 0)
+        what = "hw_params";
+    else if ((rc = snd_pcm_sw_params_current(c->pcm, sw)) < 0)
+        what = "sw_params_current";
+    else if ((rc = snd_pcm_sw_params_set_avail_min(c->pcm, sw, 1)) < 0)
+        what = "avail_min";
+    else if ((rc = snd_pcm_sw_params(c->pcm, sw)) < 0)
+        what = "sw_params";
+    if (rc < 0) {
+        snprintf(err, HD_ERR_MAX, "ALSA capture device '%s' ([capture] in %s) refused %s: %s", k->device, b->path, what,
+                 snd_strerror(rc));
+        hd_capture_close(c);
+        return rc;
+    }
+    snd_pcm_hw_params_get_period_size(hw, &c->period_frames, NULL);
+    snd_pcm_hw_params_get_buffer_size(hw, &c->buffer_frames);
+    return 0;
+}
+
+void hd_capture_close(struct hd_capture *c)
+{
+    if (c->pcm) {
+        snd_pcm_drop(c->pcm);
+        snd_pcm_close(c->pcm);
+    }
+    memset(c, 0, sizeof *c);
+}
+
 /* ---- libasound's messages ---- */
 
 static char lib_first[512];

@@ -83,6 +83,24 @@ int hd_audio_poll_ready(struct hd_audio *a, struct pollfd *pfd, int n);
 /* Stop: drain (play what is queued) or drop it. */
 void hd_audio_close(struct hd_audio *a, int drain);
 
+/* ---- capture (hapticd --measure: the board's [capture]) ---- */
+
+struct hd_capture {
+    snd_pcm_t *pcm;
+    uint32_t channels, rate_hz;
+    snd_pcm_uframes_t period_frames, buffer_frames;
+    size_t frame_bytes;
+};
+
+/* Open the board's [capture] device non-blocking (reads return -EAGAIN
+ * when nothing is there), through the local ALSA config `lconf` when the
+ * board has one (the playback's, hd_audio.lconf), with its channels,
+ * format and rate exactly, periods of `period_frames` and a buffer of at
+ * least `buffer_frames`. One-line error naming the device and the board. */
+int hd_capture_open(struct hd_capture *c, const struct hd_board *b, snd_config_t *lconf,
+                    snd_pcm_uframes_t period_frames, snd_pcm_uframes_t buffer_frames, char err[HD_ERR_MAX]);
+void hd_capture_close(struct hd_capture *c);
+
 /* libasound's own messages. By default it prints them to stderr, several
  * lines per failure and one per failed write (hundreds a second from a
  * plugin that cannot write its file). Once hd_audio_lib_messages_capture()

@@ -55,6 +55,8 @@ void hd_board_defaults(struct hd_board *b)
     b->touch.hysteresis_m = 0.005;
     b->rt_priority = 80;
     b->mlock = true;
+    b->capture.channels = 8;
+    b->capture.format = HD_FMT_S32_LE;
 }
 
 const char *hd_format_name(enum hd_sample_format f)
@@ -158,6 +160,18 @@ static int copy_path(struct parse_ctx *c, const char *sec, const char *key, char
         return 1;                                                                                                      \
     } while (0)
 
+static int format_key(struct parse_ctx *c, const char *section, const char *name, const char *value,
+                      enum hd_sample_format *out)
+{
+    if (!strcmp(value, "S16_LE"))
+        *out = HD_FMT_S16_LE;
+    else if (!strcmp(value, "S32_LE"))
+        *out = HD_FMT_S32_LE;
+    else
+        return bad(c, section, name, "'%s' is not S16_LE or S32_LE", value);
+    return 1;
+}
+
 static int alsa_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
 {
     struct hd_board *b = c->b;
@@ -173,15 +187,8 @@ static int alsa_key(struct parse_ctx *c, const char *section, const char *name, 
         UINT_KEY(b->period_frames, 16, 8192);
     if (!strcmp(name, "periods"))
         UINT_KEY(b->periods, 2, 32);
-    if (!strcmp(name, "format")) {
-        if (!strcmp(value, "S16_LE"))
-            b->format = HD_FMT_S16_LE;
-        else if (!strcmp(value, "S32_LE"))
-            b->format = HD_FMT_S32_LE;
-        else
-            return bad(c, section, name, "'%s' is not S16_LE or S32_LE", value);
-        return 1;
-    }
+    if (!strcmp(name, "format"))
+        return format_key(c, section, name, value, &b->format);
     if (!strcmp(name, "channel_map")) {
         uint32_t map[HD_MAX_CHANNELS];
         int n = hd_parse_uint_list(value, map, HD_MAX_CHANNELS, HD_MAX_CHANNELS - 1);
@@ -333,6 +340,24 @@ static int exciters_key(struct parse_ctx *c, const char *section, const char *na
     return bad(c, section, name, "unknown key");
 }
 
+static int capture_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
+{
+    struct hd_capture_board *k = &c->b->capture;
+    if (!strcmp(name, "device"))
+        return copy_str(c, section, name, k->device, sizeof k->device, value);
+    if (!strcmp(name, "playback_device"))
+        return copy_str(c, section, name, k->playback_device, sizeof k->playback_device, value);
+    if (!strcmp(name, "channels"))
+        UINT_KEY(k->channels, 1, HD_MAX_CHANNELS);
+    if (!strcmp(name, "rate_hz"))
+        UINT_KEY(k->rate_hz, 8000, 768000);
+    if (!strcmp(name, "format"))
+        return format_key(c, section, name, value, &k->format);
+    if (!strcmp(name, "offset_frames"))
+        UINT_KEY(k->offset_frames, 0, 65536);
+    return bad(c, section, name, "unknown key");
+}
+
 static int touch_key(struct parse_ctx *c, const char *section, const char *name, const char *value)
 {
     struct hd_touch_board *t = &c->b->touch;
@@ -379,6 +404,10 @@ static int handler(void *user, const char *section, const char *name, const char
     if (!strcmp(section, "touch")) {
         b->touch.enabled = true;
         return touch_key(c, section, name, value);
+    }
+    if (!strcmp(section, "capture")) {
+        b->capture.enabled = true;
+        return capture_key(c, section, name, value);
     }
     if (!strcmp(section, "gpio")) {
         if (!strcmp(name, "chip"))
@@ -504,6 +533,18 @@ static int cross_check(struct parse_ctx *c)
                 return bad(c, "touch", "calib_3",
                            "the three points give no finite map (collinear panel points, or a plate beyond range)");
         }
+    }
+    struct hd_capture_board *k = &b->capture;
+    if (k->enabled) {
+        if (!k->device[0])
+            return bad(c, "capture", "device", "missing (the ALSA capture device --measure records)");
+        if (!k->rate_hz)
+            k->rate_hz = b->rate_hz;
+        else if (k->rate_hz != b->rate_hz)
+            return bad(c, "capture", "rate_hz",
+                       "%u Hz but [alsa] rate_hz is %u: a sample-synchronous recording needs the playback's rate "
+                       "(one clock)",
+                       k->rate_hz, b->rate_hz);
     }
     if (b->line_count > 0 && !b->gpio_chip[0])
         return bad(c, "gpio", "chip", "missing but [line N] sections are present");

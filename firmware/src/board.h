@@ -82,6 +82,17 @@ struct hd_board {
         double temperature_poll_s;           /* how often that file is read */
         double temperature_step_k;           /* the drives are stretched again when it moved this much */
     } panel;
+    /* [capture]: what `hapticd --measure` records, sample-synchronously
+     * with the plan it plays (measure.h) */
+    struct hd_capture_board {
+        bool enabled;                 /* the section is present */
+        char device[256];             /* ALSA capture PCM (through [alsa] config when given) */
+        char playback_device[256];    /* the PCM the plan plays on; "" = [alsa] device */
+        unsigned channels;            /* capture channels (sensors) */
+        enum hd_sample_format format; /* of the device and of the recording */
+        unsigned rate_hz;             /* must equal [alsa] rate_hz: one clock */
+        unsigned offset_frames;       /* the converters' fixed lag: a played frame n is captured as frame n + offset */
+    } capture;
     /* [table] */
     char table_path[HD_PATH_MAX]; /* "" if none (then --table is required) */
     /* [realtime] */

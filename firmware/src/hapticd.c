@@ -16,6 +16,7 @@
 #include "engine.h"
 #include "exciter_report.h"
 #include "log.h"
+#include "measure.h"
 #include "program.h"
 #include "rt.h"
 #include "script.h"
@@ -44,7 +45,8 @@
 
 struct options {
     const char *board, *table, *triggers, *script, *alsa_device, *latency_report, *touch_device;
-    int rt_priority; /* -1: from the board */
+    const char *measure, *capture; /* --measure PLAN.wav --capture REC.wav (measure.h) */
+    int rt_priority;               /* -1: from the board */
     unsigned tail_frames;
     int drop; /* SIGTERM: drop instead of drain */
     int use_syslog;
@@ -81,6 +83,7 @@ static void usage(FILE *f)
     fprintf(f, "usage: hapticd --board boards/NAME/board.ini [--table FILE.htab] [--triggers -|FIFO]\n"
                "               [--script FILE] [--alsa-device PCM] [--touch-device PATH] [--rt-priority N] [--drop]\n"
                "               [--tail-frames N] [--latency-report FILE|-] [--syslog]\n"
+               "       hapticd --board boards/NAME/board.ini --measure PLAN.wav --capture REC.wav [--alsa-device PCM]\n"
                "       hapticd --check FILE.htab [--board boards/NAME/board.ini]\n");
 }
 
@@ -187,6 +190,8 @@ static int parse_args(int argc, char **argv, struct options *o)
         {"latency-report", required_argument, 0, 'L'},
         {"drop", no_argument, 0, 'd'},
         {"syslog", no_argument, 0, 'S'},
+        {"measure", required_argument, 0, 'M'},
+        {"capture", required_argument, 0, 'C'},
         {"help", no_argument, 0, 'h'},
         {0, 0, 0, 0},
     };
@@ -207,6 +212,12 @@ static int parse_args(int argc, char **argv, struct options *o)
             break;
         case 's':
             o->script = optarg;
+            break;
+        case 'M':
+            o->measure = optarg;
+            break;
+        case 'C':
+            o->capture = optarg;
             break;
         case 'D':
             o->alsa_device = optarg;
@@ -258,6 +269,15 @@ static int parse_args(int argc, char **argv, struct options *o)
     }
     if (o->script && o->triggers) {
         fprintf(stderr, "hapticd: --script and --triggers exclude each other\n");
+        return 2;
+    }
+    if (!o->measure != !o->capture) {
+        fprintf(stderr, "hapticd: --measure PLAN.wav and --capture REC.wav go together\n");
+        return 2;
+    }
+    if (o->measure && (o->script || o->triggers || o->table || o->touch_device || o->latency_report)) {
+        fprintf(stderr, "hapticd: --measure plays a plan, not a table: no --table, --script, --triggers, "
+                        "--touch-device or --latency-report with it\n");
         return 2;
     }
     return 0;
@@ -497,6 +517,8 @@ int main(int argc, char **argv)
         hd_log(LOG_ERR, "%s", err);
         return 1;
     }
+    if (d.opt.measure) /* a mode of its own: no table, no threads (measure.h) */
+        return hd_measure_run(&d.board, d.opt.measure, d.opt.capture, d.opt.alsa_device);
     if (!table_path(&d)[0]) {
         hd_log(LOG_ERR, "no table: pass --table or set [table] path in %s", d.board.path);
         return 1;

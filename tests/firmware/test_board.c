@@ -243,6 +243,17 @@ static const struct bad_case cases[] = {
     {"[realtime]\nmlock = sometimes\n", "[realtime] mlock", 4},
     {"[realtime]\nnice = 1\n", "[realtime] nice", 4},
     {"[audio]\nx = 1\n", "[audio] x", 4},
+    {"[capture]\nchannels = 2\n", "[capture] device", 0},
+    {"[capture]\ndevice =\n", "[capture] device", 4},
+    {"[capture]\ndevice = hw:0\nchannels = 0\n", "[capture] channels", 5},
+    {"[capture]\ndevice = hw:0\nchannels = 33\n", "[capture] channels", 5},
+    {"[capture]\ndevice = hw:0\nformat = FLOAT_LE\n", "[capture] format", 5},
+    {"[capture]\ndevice = hw:0\nrate_hz = 7999\n", "[capture] rate_hz", 5},
+    {"[capture]\ndevice = hw:0\nrate_hz = 44100\n", "[capture] rate_hz", 0},
+    {"[capture]\ndevice = hw:0\noffset_frames = -1\n", "[capture] offset_frames", 5},
+    {"[capture]\ndevice = hw:0\noffset_frames = 65537\n", "[capture] offset_frames", 5},
+    {"[capture]\ndevice = hw:0\nplayback_device =\n", "[capture] playback_device", 5},
+    {"[capture]\ndevice = hw:0\ngain = 1\n", "[capture] gain", 5},
     {"[alsa]\nthis is not ini\n", "syntax error", 4},
 };
 
@@ -411,6 +422,11 @@ static void shipped_boards_parse(void **state)
             assert_int_equal(b.pacing, HD_PACE_CLOCK);
             assert_int_equal(b.line_count, 0);
             assert_non_null(strstr(b.alsa_config, "boards/host-sim/asoundrc"));
+            /* --measure's loopback (asoundrc) */
+            assert_true(b.capture.enabled);
+            assert_string_equal(b.capture.device, "hostsim_capture");
+            assert_string_equal(b.capture.playback_device, "hostsim_loop");
+            assert_int_equal(b.capture.channels, 8);
         } else {
             assert_int_equal(b.pacing, HD_PACE_DEVICE);
             assert_true(b.line_count >= 3);
@@ -424,6 +440,35 @@ static void shipped_boards_parse(void **state)
             assert_true(fabs(b.touch.calib[0][3] - b.touch.calib[2][3] - 0.0859) < 1e-9);
         }
     }
+}
+
+/* [capture]: every key; the rate defaults to the playback's; a board without it stays valid. */
+static void capture_section(void **state)
+{
+    (void)state;
+    struct hd_board b;
+    char err[HD_ERR_MAX] = "";
+    assert_int_equal(hd_board_parse_string("[alsa]\ndevice = hw:0\nrate_hz = 44100\n[capture]\ndevice = hw:0,1\n"
+                                           "playback_device = duplex\nchannels = 2\nformat = S16_LE\n"
+                                           "offset_frames = 37\n",
+                                           "b.ini", &b, err),
+                     0);
+    assert_true(b.capture.enabled);
+    assert_string_equal(b.capture.device, "hw:0,1");
+    assert_string_equal(b.capture.playback_device, "duplex");
+    assert_int_equal(b.capture.channels, 2);
+    assert_int_equal(b.capture.format, HD_FMT_S16_LE);
+    assert_int_equal(b.capture.rate_hz, 44100);
+    assert_int_equal(b.capture.offset_frames, 37);
+    assert_int_equal(
+        hd_board_parse_string("[alsa]\ndevice = hw:0\n[capture]\ndevice = hw:0\nrate_hz = 48000\n", "b.ini", &b, err),
+        0);
+    assert_int_equal(b.capture.channels, 8);
+    assert_int_equal(b.capture.format, HD_FMT_S32_LE);
+    assert_int_equal(b.capture.offset_frames, 0);
+    assert_string_equal(b.capture.playback_device, "");
+    assert_int_equal(hd_board_parse_string("[alsa]\ndevice = hw:0\n", "b.ini", &b, err), 0);
+    assert_false(b.capture.enabled);
 }
 
 static void touch_section(void **state)
@@ -482,6 +527,7 @@ int main(void)
         cmocka_unit_test(uint_list),
         cmocka_unit_test(shipped_boards_parse),
         cmocka_unit_test(touch_section),
+        cmocka_unit_test(capture_section),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
