@@ -385,6 +385,7 @@ int run_calibrate(const CalibrateArgs &a)
 struct VerifyArgs {
     std::string scene, table, report, drive, expect;
     bool quiet = false;
+    bool scene_exciters = false; // the scene's fixed placement (the panel as it is), not the table's
     LimitArgs limits;
 };
 
@@ -418,6 +419,14 @@ int run_verify(const VerifyArgs &a)
     std::vector<pipeline::Point> exciters(t.channel_count);
     for (uint32_t c = 0; c < t.channel_count; c++)
         haptic_table_channel_position(&t, c, &exciters[c].x_m, &exciters[c].y_m);
+    if (a.scene_exciters) {
+        if (in.exciters.placement != pipeline::PlacementMode::fixed || in.exciters.positions.size() != t.channel_count)
+            throw std::runtime_error(a.scene +
+                                     ": exciters: --exciters scene needs placement = \"fixed\" with one "
+                                     "position per table channel (" +
+                                     std::to_string(t.channel_count) + ")");
+        exciters = in.exciters.positions;
+    }
     // The table's foci must be the scene's, in the scene's order.
     if (t.focus_count != in.foci.points.size())
         throw std::runtime_error(a.table + ": " + std::to_string(t.focus_count) + " foci, the scene has " +
@@ -535,6 +544,11 @@ void register_verify(CLI::App &app, int &exit_code)
     cmd->add_option("--report", a->report, "Directory for metrics.json and index.html");
     cmd->add_option("--drive", a->drive, "Multichannel WAV the device played, simulated instead of the table");
     cmd->add_option("--expect", a->expect, "With --drive: TIME_S:FOCUS_ID,... the focus each trigger asked for");
+    cmd->add_option_function<std::string>(
+           "--exciters", [a](const std::string &v) { a->scene_exciters = v == "scene"; },
+           "Where the exciters are: 'table' (default: where the table was calibrated for) or 'scene' (the "
+           "scene's fixed placement and force gains: a panel as measured, e.g. a bench fit's truth)")
+        ->check(CLI::IsMember({"table", "scene"}));
     cmd->add_flag("-q,--quiet", a->quiet, "No progress or summary on stderr");
     add_limit_options(cmd, a->limits);
     cmd->callback([a, &exit_code] { exit_code = run_verify(*a); });

@@ -13,5 +13,8 @@ void register_dispersion(CLI::App &app, int &exit_code);
 void register_simulate(CLI::App &app, int &exit_code);
 void register_study(CLI::App &app, int &exit_code);
 void register_modes(CLI::App &app, int &exit_code);
+void register_fit(CLI::App &app, int &exit_code);
+void register_bench_record(CLI::App &app, int &exit_code);
+void register_measure_plan(CLI::App &app, int &exit_code);
 
 } // namespace calib::app

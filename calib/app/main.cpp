@@ -16,6 +16,9 @@ int main(int argc, char **argv)
     calib::app::register_simulate(app, exit_code);
     calib::app::register_study(app, exit_code);
     calib::app::register_modes(app, exit_code);
+    calib::app::register_measure_plan(app, exit_code);
+    calib::app::register_fit(app, exit_code);
+    calib::app::register_bench_record(app, exit_code);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError &e) {

@@ -137,6 +137,17 @@ pipeline::ExcitersSpec parse_exciters(const Fields &f)
     } else if (e.placement == PlacementMode::fixed) {
         f.fail("positions_m", "missing (required with placement = \"fixed\"): [[x, y], ...] in metres");
     }
+    if (f.has("force_gains")) {
+        if (e.placement != PlacementMode::fixed)
+            f.fail("force_gains", "only with placement = \"fixed\" (a gain belongs to a glued exciter)");
+        auto g = f.numbers("force_gains", e.count);
+        if (!g)
+            f.fail("force_gains", "must be " + std::to_string(e.count) + " numbers, one per exciter");
+        for (double v : *g)
+            if (!(v > 0 && std::isfinite(v)))
+                f.fail("force_gains", "must be positive and finite");
+        e.force_gains = *g;
+    }
     return e;
 }
 

@@ -172,7 +172,7 @@ void parse_exciters_section(const toml::table &t, Scene &scene)
     scene.exciters = parse_exciters(
         Fields(t, scene.file, "exciters",
                {"count", "placement", "criterion", "seed", "min_spacing_m", "force_full_scale_n", "positions_m",
-                "site_spacing_m", "restarts", "iterations", "verdict_rounds", "contrast_window", "placement_foci"}));
+                "site_spacing_m", "restarts", "iterations", "verdict_rounds", "contrast_window", "placement_foci", "force_gains"}));
 }
 
 void parse_foci_section(const toml::table &t, Scene &scene)

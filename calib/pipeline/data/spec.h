@@ -4,6 +4,7 @@
 #pragma once
 #include "pipeline/data/geometry.h"
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -28,8 +29,14 @@ struct ExcitersSpec {
     PlacementCriterion criterion = PlacementCriterion::contrast;
     uint64_t seed = 1;
     double min_spacing_m = 0.05;
-    double force_full_scale_n = 1.0;      // force an exciter applies at digital full scale
-    std::vector<Point> positions;         // placement = "fixed"
+    double force_full_scale_n = 1.0; // force an exciter applies at digital full scale
+    std::vector<Point> positions;    // placement = "fixed"
+    // placement = "fixed": each exciter's force per count relative to
+    // force_full_scale_n (a bench fit measures them, docs/bench.md); empty: all 1.
+    // The one place they act is the transfer matrix (transfer/transfer.h) and
+    // the forward path's forces: a drive is designed for the exciter it plays on.
+    std::vector<double> force_gains;
+    double force_gain(std::size_t c) const { return c < force_gains.size() ? force_gains[c] : 1.0; }
     std::optional<double> site_spacing_m; // candidate lattice; default lambda/8 at the pulse centre
     unsigned restarts = 8;
     unsigned iterations = 1500;

@@ -282,10 +282,12 @@ TransferMatrix perturbed_transfer(const CalibrationInput &nominal, const Calibra
     std::vector<Point> foci;
     for (const FocusPoint &f : perturbed.foci.points)
         foci.push_back(f.at);
-    return simulate_transfer(perturbed, exciters, foci, o, [&](std::size_t done, std::size_t total) {
+    TransferMatrix H = simulate_transfer(perturbed, exciters, foci, o, [&](std::size_t done, std::size_t total) {
         if (progress)
             progress("transfer", done, total);
     });
+    apply_force_gains(perturbed, H);
+    return H;
 }
 
 std::optional<TransferMatrix> rescaled_transfer(const CalibrationInput &nominal, const CalibrationInput &perturbed,

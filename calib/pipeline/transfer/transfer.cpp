@@ -143,6 +143,21 @@ TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<P
     return H;
 }
 
+void apply_force_gains(const CalibrationInput &in, TransferMatrix &H)
+{
+    if (in.exciters.force_gains.empty())
+        return;
+    if (in.exciters.force_gains.size() != H.channels)
+        throw std::invalid_argument("exciters.force_gains: " + std::to_string(in.exciters.force_gains.size()) +
+                                    " gains for " + std::to_string(H.channels) + " exciters");
+    const std::size_t block = H.point_count() * H.samples;
+    for (std::size_t c = 0; c < H.channels; c++) {
+        const auto g = static_cast<float>(in.exciters.force_gain(c));
+        for (std::size_t i = 0; i < block; i++)
+            H.data[c * block + i] *= g;
+    }
+}
+
 TransferMatrix transfer_for(const CalibrationInput &in, const std::vector<Point> &exciters, const ProgressFn &progress)
 {
     engine::Simulation probe(in.plate, single_core_options(in));
@@ -150,10 +165,12 @@ TransferMatrix transfer_for(const CalibrationInput &in, const std::vector<Point>
     std::vector<Point> foci;
     for (const FocusPoint &f : in.foci.points)
         foci.push_back(f.at);
-    return simulate_transfer(in, exciters, foci, o, [&](size_t done, size_t total) {
+    TransferMatrix H = simulate_transfer(in, exciters, foci, o, [&](size_t done, size_t total) {
         if (progress)
             progress("transfer", done, total);
     });
+    apply_force_gains(in, H);
+    return H;
 }
 
 } // namespace calib::pipeline

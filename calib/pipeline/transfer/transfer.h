@@ -60,7 +60,13 @@ TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<P
                                  const std::vector<Point> &exact_points, const TransferOptions &options,
                                  const TransferProgress &progress = {});
 
-// H for verifying these exciters: the scene's lattice and the foci exactly.
+// The scene's exciters' force gains ([exciters] force_gains) on H: response c
+// times gain c, for an H whose channels are the scene's exciters in order.
+// The one place the gains act on H (transfer_for and perturbed_transfer call it).
+void apply_force_gains(const CalibrationInput &in, TransferMatrix &H);
+
+// H for verifying these exciters: the scene's lattice and the foci exactly,
+// with the scene's force gains.
 TransferMatrix transfer_for(const CalibrationInput &in, const std::vector<Point> &exciters,
                             const ProgressFn &progress = {});
 

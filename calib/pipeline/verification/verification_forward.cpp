@@ -55,7 +55,8 @@ engine::Simulation drive(const CalibrationInput &in, const std::vector<Point> &e
         for (size_t i = 0; i < n; i++)
             ch[i] = frames[i * channels + c];
         const size_t src = sim.add_source(exciters[c].x_m, exciters[c].y_m);
-        std::vector<double> force = drive_force(ch, rate_hz, 1.0 / k, in.exciters.force_full_scale_n);
+        std::vector<double> force =
+            drive_force(ch, rate_hz, 1.0 / k, in.exciters.force_full_scale_n * in.exciters.force_gain(c));
         if (in.effects.exciter) // the drive is Bl i; the plate gets the exciter's blocked force
             force = engine::effects::blocked_force(force, 1.0 / k, *in.effects.exciter);
         sim.set_source_signal(src, std::move(force));
