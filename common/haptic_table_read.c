@@ -3,14 +3,13 @@
  * This is all the device links. Field layout: docs/table-format.md. */
 #define _POSIX_C_SOURCE 200809L
 #include "haptic_table_internal.h"
+#include "haptic_file.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
-#include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
 
@@ -300,23 +299,20 @@ int haptic_table_open(const char *path, haptic_table *out, haptic_table_error *e
     if (!path || !out)
         return fail(err, HAPTIC_TABLE_EINVAL, 0, "NULL path or table");
     memset(out, 0, sizeof *out);
-    /* O_NONBLOCK: a FIFO (or a device) at the path must not block the open;
-     * it is refused below as not a regular file. A regular file reads as ever. */
-    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-    if (fd < 0)
-        return fail(err, HAPTIC_TABLE_EIO, 0, "cannot open: %s", strerror(errno));
-    struct stat st;
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-        int e = errno;
-        close(fd);
-        return fail(err, HAPTIC_TABLE_EIO, 0, "not a regular file%s%s", e ? ": " : "", e ? strerror(e) : "");
+    /* Not blocked on (a FIFO or a device at the path is refused as not a
+     * regular file), and bounded before anything is read (haptic_file.h). */
+    int fd;
+    haptic_file_status fs;
+    if (haptic_file_open_regular(path, HAPTIC_TABLE_MAX_FILE_SIZE, &fd, &fs) != 0) {
+        const int e = fs.error;
+        if (fs.refusal == HAPTIC_FILE_CANNOT_OPEN)
+            return fail(err, HAPTIC_TABLE_EIO, 0, "cannot open: %s", strerror(e));
+        if (fs.refusal == HAPTIC_FILE_NOT_REGULAR)
+            return fail(err, HAPTIC_TABLE_EIO, 0, "not a regular file%s%s", e ? ": " : "", e ? strerror(e) : "");
+        return fail(err, HAPTIC_TABLE_ETOOBIG, 0, "file of %lld bytes exceeds the %llu byte limit", (long long)fs.size,
+                    (unsigned long long)HAPTIC_TABLE_MAX_FILE_SIZE);
     }
-    if ((uint64_t)st.st_size > HAPTIC_TABLE_MAX_FILE_SIZE) {
-        close(fd);
-        return fail(err, HAPTIC_TABLE_ETOOBIG, 0, "file of %lld bytes exceeds the %llu byte limit",
-                    (long long)st.st_size, (unsigned long long)HAPTIC_TABLE_MAX_FILE_SIZE);
-    }
-    size_t size = (size_t)st.st_size;
+    size_t size = (size_t)fs.size;
     /* The header first: a file that is no table, or whose header disagrees
      * with its size, is refused before anything is allocated, so reading a
      * large file that is not a table costs one header's read. What is

@@ -7,11 +7,11 @@
 #include "text.h"
 #include "touch.h"
 
+#include <haptic_file.h>
 #include <haptic_stretch.h>
 #include <ini.h>
 
 #include <errno.h>
-#include <fcntl.h>
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
@@ -19,7 +19,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 struct parse_ctx {
@@ -666,34 +665,27 @@ int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX])
     }
     /* Opened without blocking (a FIFO at the path would block fopen) and
      * refused unless it is a regular file: a directory, a FIFO or a device
-     * such as /dev/zero is no board file, and reading one could not end. */
-    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-    if (fd < 0) {
-        int e = errno;
-        snprintf(err, HD_ERR_MAX, "%s: cannot open board file: %s", path, strerror(e));
-        return -e;
-    }
-    struct stat st = {0};
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-        close(fd);
+     * such as /dev/zero is no board file, and reading one could not end.
+     * Read whole, bounded before allocating: a board file is a page of text. */
+    int fd;
+    haptic_file_status fs;
+    int rc = haptic_file_open_regular(path, HD_BOARD_MAX_BYTES, &fd, &fs);
+    if (fs.refusal == HAPTIC_FILE_CANNOT_OPEN)
+        snprintf(err, HD_ERR_MAX, "%s: cannot open board file: %s", path, strerror(fs.error));
+    else if (fs.refusal == HAPTIC_FILE_NOT_REGULAR)
         snprintf(err, HD_ERR_MAX, "%s: not a regular file (a %s is no board file)", path,
-                 S_ISDIR(st.st_mode)    ? "directory"
-                 : S_ISFIFO(st.st_mode) ? "FIFO"
-                                        : "device or socket");
-        return -EINVAL;
-    }
-    /* Read whole, bounded before allocating: a board file is a page of text. */
-    if (st.st_size > (off_t)HD_BOARD_MAX_BYTES) {
-        close(fd);
-        snprintf(err, HD_ERR_MAX, "%s: %lld bytes, larger than the %u a board file may have", path,
-                 (long long)st.st_size, HD_BOARD_MAX_BYTES);
-        return -EFBIG;
-    }
-    char *text = malloc((size_t)st.st_size + 1);
+                 haptic_file_kind_name(fs.kind));
+    else if (fs.refusal == HAPTIC_FILE_TOO_BIG)
+        snprintf(err, HD_ERR_MAX, "%s: %lld bytes, larger than the %u a board file may have", path, (long long)fs.size,
+                 HD_BOARD_MAX_BYTES);
+    if (rc)
+        return rc;
+    const size_t size = (size_t)fs.size;
+    char *text = malloc(size + 1);
     size_t got = 0;
     int e = text ? 0 : ENOMEM;
-    while (!e && got < (size_t)st.st_size) {
-        ssize_t n = read(fd, text + got, (size_t)st.st_size - got);
+    while (!e && got < size) {
+        ssize_t n = read(fd, text + got, size - got);
         if (n < 0 && errno == EINTR)
             continue;
         if (n <= 0)
@@ -708,7 +700,7 @@ int hd_board_load(const char *path, struct hd_board *b, char err[HD_ERR_MAX])
         return -e;
     }
     text[got] = '\0';
-    int rc = parse_text(text, got, path, b, err);
+    rc = parse_text(text, got, path, b, err);
     free(text);
     return rc;
 }

@@ -2,8 +2,9 @@
 #define _POSIX_C_SOURCE 200809L
 #include "control.h"
 
+#include <haptic_file.h>
+
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -62,18 +63,17 @@ int hd_control_poll(struct hd_control *c, double *db, char err[HD_ERR_MAX])
     c->mtime_ns = mtime_ns;
     c->size = st.st_size;
     c->ino = st.st_ino;
-    int fd = open(c->path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-    if (fd < 0) {
-        int e = errno;
-        snprintf(err, HD_ERR_MAX, "%s: %s", c->path, strerror(e));
-        return -e;
-    }
-    struct stat fst;
-    if (fstat(fd, &fst) != 0 || !S_ISREG(fst.st_mode)) {
-        close(fd);
+    /* No bound on the size: at most HD_CONTROL_MAX_BYTES + 1 are read, and
+     * more than HD_CONTROL_MAX_BYTES is refused by the parse. */
+    int fd;
+    haptic_file_status fs;
+    const int orc = haptic_file_open_regular(c->path, HAPTIC_FILE_NO_LIMIT, &fd, &fs);
+    if (fs.refusal == HAPTIC_FILE_CANNOT_OPEN)
+        snprintf(err, HD_ERR_MAX, "%s: %s", c->path, strerror(fs.error));
+    else if (orc)
         snprintf(err, HD_ERR_MAX, "%s: not a regular file", c->path);
-        return -EINVAL;
-    }
+    if (orc)
+        return orc;
     char buf[HD_CONTROL_MAX_BYTES + 1];
     ssize_t n = read(fd, buf, sizeof buf);
     int e = errno;

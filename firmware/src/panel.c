@@ -2,33 +2,31 @@
 #define _POSIX_C_SOURCE 200809L
 #include "panel.h"
 
+#include <haptic_file.h>
 #include <haptic_stretch.h>
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 int hd_panel_read_celsius(const char *path, double *celsius, char err[HD_ERR_MAX])
 {
     /* Non-blocking and a regular file (sysfs attributes are): a FIFO at the
-     * path would block the main thread, and with it the signals, forever. */
-    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-    if (fd < 0) {
-        int e = errno;
-        snprintf(err, HD_ERR_MAX, "%s: %s", path, strerror(e));
-        return -e;
-    }
-    struct stat st;
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-        close(fd);
+     * path would block the main thread, and with it the signals, forever.
+     * No bound on the size: a sysfs attribute says 4096, and only the
+     * first bytes are read. */
+    int fd;
+    haptic_file_status fs;
+    const int orc = haptic_file_open_regular(path, HAPTIC_FILE_NO_LIMIT, &fd, &fs);
+    if (fs.refusal == HAPTIC_FILE_CANNOT_OPEN)
+        snprintf(err, HD_ERR_MAX, "%s: %s", path, strerror(fs.error));
+    else if (orc)
         snprintf(err, HD_ERR_MAX, "%s: not a regular file (a temperature input is a sysfs attribute)", path);
-        return -EINVAL;
-    }
+    if (orc)
+        return orc;
     char buf[32];
     ssize_t n = read(fd, buf, sizeof buf - 1);
     int e = errno;

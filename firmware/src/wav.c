@@ -2,6 +2,8 @@
 #define _GNU_SOURCE
 #include "wav.h"
 
+#include <haptic_file.h>
+
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
@@ -97,32 +99,24 @@ int hd_wav_read(const char *path, struct hd_wav *w, char err[HD_ERR_MAX])
     memset(w, 0, sizeof *w);
     /* As board files and tables: opened without blocking (a FIFO at the
      * path would block the open) and refused unless a regular file. */
-    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-    if (fd < 0) {
-        int e = errno;
-        snprintf(err, HD_ERR_MAX, "%s: cannot open: %s", path, strerror(e));
-        return -e;
-    }
-    struct stat st = {0};
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-        close(fd);
-        snprintf(err, HD_ERR_MAX, "%s: not a regular file (a %s is no WAV file)", path,
-                 S_ISDIR(st.st_mode)    ? "directory"
-                 : S_ISFIFO(st.st_mode) ? "FIFO"
-                                        : "device or socket");
-        return -EINVAL;
-    }
-    if ((unsigned long long)st.st_size > HD_WAV_MAX_BYTES) {
-        close(fd);
+    int fd;
+    haptic_file_status fs;
+    const int orc = haptic_file_open_regular(path, HD_WAV_MAX_BYTES, &fd, &fs);
+    if (fs.refusal == HAPTIC_FILE_CANNOT_OPEN)
+        snprintf(err, HD_ERR_MAX, "%s: cannot open: %s", path, strerror(fs.error));
+    else if (fs.refusal == HAPTIC_FILE_NOT_REGULAR)
+        snprintf(err, HD_ERR_MAX, "%s: not a regular file (a %s is no WAV file)", path, haptic_file_kind_name(fs.kind));
+    else if (fs.refusal == HAPTIC_FILE_TOO_BIG)
         snprintf(err, HD_ERR_MAX, "%s: %lld bytes, larger than the %llu a WAV file may have here", path,
-                 (long long)st.st_size, HD_WAV_MAX_BYTES);
-        return -EFBIG;
-    }
-    uint8_t *buf = malloc((size_t)st.st_size + 1);
+                 (long long)fs.size, HD_WAV_MAX_BYTES);
+    if (orc)
+        return orc;
+    const size_t size = (size_t)fs.size;
+    uint8_t *buf = malloc(size + 1);
     size_t got = 0;
     int e = buf ? 0 : ENOMEM;
-    while (!e && got < (size_t)st.st_size) {
-        ssize_t n = read(fd, buf + got, (size_t)st.st_size - got);
+    while (!e && got < size) {
+        ssize_t n = read(fd, buf + got, size - got);
         if (n < 0 && errno == EINTR)
             continue;
         if (n <= 0)
