@@ -2,7 +2,9 @@
 // haptic_gtest_runs_calibgen): its exit status and its stderr, with a hard
 // time limit so that a hang fails the test instead of stalling the suite.
 #pragma once
+#include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -37,5 +39,32 @@ inline Outcome run(const std::filesystem::path &dir, const std::string &args)
     r.err = read_text(err);
     return r;
 }
+
+// A suite whose every test runs calibgen in a fresh temporary directory of
+// its own (`name`-PID under the system's), removed afterwards; run() keeps
+// calibgen's stdout in `out`.
+class Workdir : public ::testing::Test {
+  protected:
+    explicit Workdir(const std::string &name) : name_(name) {}
+    void SetUp() override
+    {
+        dir = std::filesystem::temp_directory_path() / (name_ + "-" + std::to_string(::getpid()));
+        std::filesystem::remove_all(dir);
+        std::filesystem::create_directories(dir);
+    }
+    void TearDown() override { std::filesystem::remove_all(dir); }
+    Outcome run(const std::string &args)
+    {
+        Outcome r = calibgen_run::run(dir, args + " > \"" + (dir / "stdout.txt").string() + "\"");
+        out = read_text(dir / "stdout.txt");
+        return r;
+    }
+
+    std::filesystem::path dir;
+    std::string out;
+
+  private:
+    std::string name_;
+};
 
 } // namespace calibgen_run

@@ -34,23 +34,9 @@ std::string replaced(std::string text, const std::string &from, const std::strin
     return text;
 }
 
-class FitCli : public ::testing::Test {
+class FitCli : public calibgen_run::Workdir {
   protected:
-    void SetUp() override
-    {
-        dir = fs::temp_directory_path() / ("haptic-fit-cli-" + std::to_string(::getpid()));
-        fs::remove_all(dir);
-        fs::create_directories(dir);
-    }
-    void TearDown() override { fs::remove_all(dir); }
-    Outcome run(const std::string &args)
-    {
-        Outcome r = calibgen_run::run(dir, args + " > \"" + (dir / "stdout.txt").string() + "\"");
-        out = read_text(dir / "stdout.txt");
-        return r;
-    }
-    fs::path dir;
-    std::string out;
+    FitCli() : Workdir("haptic-fit-cli") {}
 };
 
 } // namespace

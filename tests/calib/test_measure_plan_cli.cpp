@@ -31,23 +31,9 @@ namespace {
 
 const std::string scenes = std::string(HAPTIC_SOURCE_DIR) + "/tests/calib/scenes/";
 
-class MeasurePlanCli : public ::testing::Test {
+class MeasurePlanCli : public calibgen_run::Workdir {
   protected:
-    void SetUp() override
-    {
-        dir = fs::temp_directory_path() / ("haptic-measure-plan-" + std::to_string(::getpid()));
-        fs::remove_all(dir);
-        fs::create_directories(dir);
-    }
-    void TearDown() override { fs::remove_all(dir); }
-
-    // calibgen ARGS, stdout into dir/stdout.txt.
-    Outcome run(const std::string &args)
-    {
-        Outcome r = calibgen_run::run(dir, args + " > \"" + (dir / "stdout.txt").string() + "\"");
-        out = read_text(dir / "stdout.txt");
-        return r;
-    }
+    MeasurePlanCli() : Workdir("haptic-measure-plan") {}
 
     // The refusal's one line, and nothing in `out_dir`.
     void expect_refused(const Outcome &r, const fs::path &out_dir, const std::string &fragment)
@@ -57,9 +43,6 @@ class MeasurePlanCli : public ::testing::Test {
         EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
         EXPECT_FALSE(fs::exists(out_dir)) << "written on refusal: " << out_dir;
     }
-
-    fs::path dir;
-    std::string out;
 };
 
 } // namespace
