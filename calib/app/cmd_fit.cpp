@@ -24,6 +24,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -39,6 +41,7 @@ struct FitArgs {
     std::string scene, measurements, output, report;
     double radius_mm = 10, window_ms = 0, model_ppw = 20;
     bool no_loss = false, no_positions = false, no_gains = false, quiet = false;
+    bool try_edges = false; // fit on each uniform edge condition too, keep the best
 };
 
 // The measured responses at the model's rate, filtered as the model's are.
@@ -74,15 +77,6 @@ int run_fit(const FitArgs &a)
     if (!s.calibration_sections())
         throw std::runtime_error(a.scene + ": not a calibration scene");
     const scene::Measurements m = scene::load_measurements(a.measurements, s);
-    // The model's plate: the scene's, on a grid of at least model_ppw points
-    // per wavelength at the scene's highest frequency, so that the fitted
-    // speed ratio is the panel's and not the scene grid's dispersion.
-    scene::Scene fine = s;
-    fine.simulation.points_per_wavelength = std::max(s.simulation.points_per_wavelength, a.model_ppw);
-    fine.simulation.grid_spacing_m.reset();
-    fine.simulation.precision = engine::Precision::f64;
-    const pipeline::CalibrationInput in = scene::calibration_input(fine, scene::build_plate(fine), *bytes);
-
     pipeline::BenchSetup setup;
     for (const scene::MeasuredSensor &sensor : m.sensors)
         setup.sensors.push_back({sensor.at, sensor.quantity});
@@ -99,9 +93,6 @@ int run_fit(const FitArgs &a)
     setup.window_s = a.window_ms > 0 ? a.window_ms * 1e-3 : std::min(0.12, 0.6 * m.gap_s);
     Progress progress(a.quiet);
     const pipeline::ProgressFn report_progress = progress.callback();
-    const pipeline::BenchModel model(in, setup);
-    const pipeline::BenchMeasured measured = measured_responses(m, model);
-
     pipeline::BenchFitOptions opt;
     opt.loss = !a.no_loss;
     opt.positions = !a.no_positions;
@@ -109,14 +100,56 @@ int run_fit(const FitArgs &a)
     opt.progress = [&](const std::string &stage, unsigned done, unsigned total) {
         report_progress(stage, done, total);
     };
-    const pipeline::BenchFitResult r = pipeline::fit_bench(model, measured, opt);
+    // The model's plate: the scene's, on a grid of at least model_ppw points
+    // per wavelength at the scene's highest frequency, so that the fitted
+    // speed ratio is the panel's and not the scene grid's dispersion.
+    struct Candidate {
+        std::optional<engine::EdgeKind> edges; // unset: the scene's
+        std::unique_ptr<pipeline::BenchModel> model;
+        pipeline::BenchMeasured measured;
+        pipeline::BenchFitResult fit;
+        engine::Grid grid;
+    };
+    std::vector<Candidate> candidates(1);
+    const engine::Edges &e = s.plate.edges;
+    const bool uniform = e.left == e.right && e.left == e.bottom && e.left == e.top;
+    if (a.try_edges)
+        for (engine::EdgeKind k :
+             {engine::EdgeKind::clamped, engine::EdgeKind::simply_supported, engine::EdgeKind::free})
+            if (!uniform || k != e.left) // the scene's own condition is the first candidate
+                candidates.push_back({k, nullptr, {}, {}, {}});
+    for (Candidate &c : candidates) {
+        scene::Scene fine = s;
+        fine.simulation.points_per_wavelength = std::max(s.simulation.points_per_wavelength, a.model_ppw);
+        fine.simulation.grid_spacing_m.reset();
+        fine.simulation.precision = engine::Precision::f64;
+        if (c.edges)
+            fine.plate.edges = engine::Edges::all(*c.edges);
+        const pipeline::CalibrationInput in = scene::calibration_input(fine, scene::build_plate(fine), *bytes);
+        c.grid = in.plate->grid();
+        c.model = std::make_unique<pipeline::BenchModel>(in, setup);
+        c.measured = measured_responses(m, *c.model);
+        c.fit = pipeline::fit_bench(*c.model, c.measured, opt);
+    }
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < candidates.size(); i++)
+        if (candidates[i].fit.residual_after_db < candidates[best].fit.residual_after_db)
+            best = i;
+    const pipeline::BenchModel &model = *candidates[best].model;
+    const pipeline::BenchMeasured &measured = candidates[best].measured;
+    const pipeline::BenchFitResult &r = candidates[best].fit;
+    const engine::Grid &grid = candidates[best].grid;
 
     // The terminal: what was fitted, how well, what to do with it.
     std::ostringstream o;
     o << "fit " << a.measurements << " on " << s.name << ": " << m.sensors.size() << " sensors x " << m.exciters.size()
       << " exciters, band " << fmt("%.0f", setup.f_lo_hz) << "-" << fmt("%.0f", setup.f_hi_hz) << " Hz, window "
-      << fmt("%.0f", setup.window_s * 1e3) << " ms, model grid " << in.plate->grid().nx << " x " << in.plate->grid().ny
-      << "\n";
+      << fmt("%.0f", setup.window_s * 1e3) << " ms, model grid " << grid.nx << " x " << grid.ny << "\n";
+    for (const Candidate &c : candidates)
+        if (candidates.size() > 1)
+            o << "  edges " << (c.edges ? engine::edge_kind_name(*c.edges) : "as the scene's") << ": residual "
+              << fmt("%.1f", c.fit.residual_after_db) << " dB fitted" << (&c == &candidates[best] ? " (kept)" : "")
+              << "\n";
     o << "  residual (energy of model - measured over measured): " << fmt("%.1f", r.residual_before_db)
       << " dB with the scene's values -> " << fmt("%.1f", r.residual_after_db) << " dB fitted\n";
     o << "  " << fmt("%-26s", "parameter") << fmt("%12s", "scene") << fmt("%12s", "fitted") << fmt("%12s", "+-1 sigma")
@@ -144,6 +177,7 @@ int run_fit(const FitArgs &a)
     fv.loss_scale = eta0 > 0 ? r.fitted.loss_factor / eta0 : 1.0;
     fv.exciters = r.fitted.exciters;
     fv.force_gains = r.fitted.gains;
+    fv.edges = candidates[best].edges;
     fv.comment = "Fitted by calibgen fit from " + a.measurements + " (" + std::to_string(m.sensors.size()) +
                  " sensors, band " + fmt("%.0f-%.0f Hz", setup.f_lo_hz, setup.f_hi_hz) + ", window " +
                  fmt("%.0f ms", setup.window_s * 1e3) + ") on " + a.scene + ".\n" + "speed ratio " +
@@ -151,7 +185,10 @@ int run_fit(const FitArgs &a)
                  fmt("%.4f", r.fitted.loss_factor) + " (scene " + fmt("%.4f", eta0) +
                  "; each T60 scaled), exciter positions and force gains below.\n" + "Residual " +
                  fmt("%.1f", r.residual_before_db) + " dB -> " + fmt("%.1f", r.residual_after_db) +
-                 " dB. Calibrate this scene for the measured panel.";
+                 " dB. Calibrate this scene for the measured panel." +
+                 (fv.edges ? std::string("\nEdges: ") + engine::edge_kind_name(*fv.edges) +
+                                 ", the best fit of clamped, simply supported and free."
+                           : std::string());
     io::write_file_atomic(a.output, scene::fitted_scene_text(*bytes, s, fv));
     o << "  wrote " << a.output << "\n";
     if (!a.report.empty()) {
@@ -186,6 +223,9 @@ void register_fit(CLI::App &app, int &exit_code)
     cmd->add_flag("--no-loss", a->no_loss, "Hold the loss at the scene's");
     cmd->add_flag("--no-positions", a->no_positions, "Hold the exciters at their nominal positions");
     cmd->add_flag("--no-gains", a->no_gains, "Hold the exciters' force gains at 1");
+    cmd->add_flag("--try-edges", a->try_edges,
+                  "Fit also on clamped, simply supported and free edges (all four alike) and keep the condition "
+                  "that fits best (four fits' time)");
     cmd->add_flag("-q,--quiet", a->quiet, "No progress lines");
     cmd->callback([a, &exit_code] { exit_code = run_fit(*a); });
 }

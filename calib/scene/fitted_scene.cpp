@@ -22,6 +22,8 @@ std::string fitted_scene_text(std::string_view scene_text, const Scene &scene, c
                                                    {"density_kg_m3", m.density_kg_m3},
                                                    {"youngs_pa", m.youngs_pa * fit.speed_ratio * fit.speed_ratio},
                                                    {"poisson", m.poisson}});
+    if (fit.edges)
+        plate.insert_or_assign("edges", engine::edge_kind_name(*fit.edges));
     if (toml::table *loss = plate["loss"].as_table(); loss && fit.loss_scale != 1) {
         if (const toml::array *t60 = (*loss)["t60_s"].as_array()) {
             toml::array scaled;

@@ -9,6 +9,7 @@
 #include "pipeline/data/geometry.h"
 #include "scene/scene.h"
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -20,7 +21,8 @@ struct FittedValues {
     double loss_scale = 1; // fitted loss factor / the scene's
     std::vector<pipeline::Point> exciters;
     std::vector<double> force_gains;
-    std::string comment; // lines, each written after "# "
+    std::optional<engine::EdgeKind> edges; // every edge, when the fit chose the condition
+    std::string comment;                   // lines, each written after "# "
 };
 
 // Throws SceneError when the text does not parse (it was read once already).

@@ -93,6 +93,43 @@ TEST_F(FitCli, PlanRecordFitAndTheFittedScene)
     EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
 }
 
+// --try-edges: a twin on simply supported edges, the scene's clamped ones;
+// the fit keeps the condition that fits, and the fitted scene says it.
+TEST_F(FitCli, TryEdgesKeepsTheConditionThatFits)
+{
+    const std::string nominal = scenes + "inverse.toml";
+    std::string twin = replaced(read_text(nominal), "edges = \"clamped\"", "edges = \"simply_supported\"");
+    twin = replaced(twin, "points_per_wavelength = 8", "points_per_wavelength = 12");
+    std::ofstream(dir / "twin.toml") << twin;
+    const fs::path bench = dir / "bench";
+    ASSERT_EQ(run("measure-plan \"" + nominal + "\" -o \"" + bench.string() + "\"").exit_code, 0);
+    {
+        std::ofstream m(bench / "measurements.toml", std::ios::app);
+        const char *at[] = {"0.11, 0.09", "0.19, 0.15"};
+        for (int s = 0; s < 2; s++)
+            m << "\n[[sensor]]\nposition_m = [" << at[s] << "]\nchannel = " << s
+              << "\nquantity = \"acceleration\"\nunits_per_count = 2000.0\n";
+    }
+    ASSERT_EQ(run("bench-record \"" + (dir / "twin.toml").string() + "\" \"" + (bench / "measurements.toml").string() +
+                  "\" --noise-db -40 -q")
+                  .exit_code,
+              0);
+    const fs::path fitted = dir / "fitted.toml";
+    const Outcome r =
+        run("fit \"" + nominal + "\" \"" + (bench / "measurements.toml").string() + "\" -o \"" + fitted.string() +
+            "\" --try-edges --no-positions --no-gains --model-ppw 10 --window-ms 20 -q");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    std::printf("%s", out.substr(0, out.find("  parameter")).c_str()); // the conditions' residuals
+    EXPECT_NE(out.find("edges simply_supported: residual"), std::string::npos) << out;
+    EXPECT_NE(out.find("dB fitted (kept)"), std::string::npos) << out;
+    const auto kept = out.find("(kept)");
+    EXPECT_NE(out.rfind("edges simply_supported", kept), std::string::npos);
+    EXPECT_EQ(out.substr(out.rfind("edges ", kept), 22), "edges simply_supported") << out;
+    const scene::Scene f = scene::load_scene(fitted.string());
+    EXPECT_EQ(f.plate.edges.left, engine::EdgeKind::simply_supported);
+    EXPECT_EQ(f.plate.edges.top, engine::EdgeKind::simply_supported);
+}
+
 TEST_F(FitCli, RefusalsWriteNothing)
 {
     const std::string nominal = scenes + "inverse.toml";
