@@ -106,18 +106,18 @@ int run_fit(const FitArgs &a)
     struct Candidate {
         std::optional<engine::EdgeKind> edges; // unset: the scene's
         std::unique_ptr<pipeline::BenchModel> model;
-        pipeline::BenchMeasured measured;
         pipeline::BenchFitResult fit;
         engine::Grid grid;
     };
     std::vector<Candidate> candidates(1);
+    pipeline::BenchMeasured measured;
     const engine::Edges &e = s.plate.edges;
     const bool uniform = e.left == e.right && e.left == e.bottom && e.left == e.top;
     if (a.try_edges)
         for (engine::EdgeKind k :
              {engine::EdgeKind::clamped, engine::EdgeKind::simply_supported, engine::EdgeKind::free})
             if (!uniform || k != e.left) // the scene's own condition is the first candidate
-                candidates.push_back({k, nullptr, {}, {}, {}});
+                candidates.push_back({k, nullptr, {}, {}});
     for (Candidate &c : candidates) {
         scene::Scene fine = s;
         fine.simulation.points_per_wavelength = std::max(s.simulation.points_per_wavelength, a.model_ppw);
@@ -128,15 +128,16 @@ int run_fit(const FitArgs &a)
         const pipeline::CalibrationInput in = scene::calibration_input(fine, scene::build_plate(fine), *bytes);
         c.grid = in.plate->grid();
         c.model = std::make_unique<pipeline::BenchModel>(in, setup);
-        c.measured = measured_responses(m, *c.model);
-        c.fit = pipeline::fit_bench(*c.model, c.measured, opt);
+        // Deconvolved once: every candidate's model has the same rate, window and band.
+        if (measured.responses.empty())
+            measured = measured_responses(m, *c.model);
+        c.fit = pipeline::fit_bench(*c.model, measured, opt);
     }
     std::size_t best = 0;
     for (std::size_t i = 1; i < candidates.size(); i++)
         if (candidates[i].fit.residual_after_db < candidates[best].fit.residual_after_db)
             best = i;
     const pipeline::BenchModel &model = *candidates[best].model;
-    const pipeline::BenchMeasured &measured = candidates[best].measured;
     const pipeline::BenchFitResult &r = candidates[best].fit;
     const engine::Grid &grid = candidates[best].grid;
 
