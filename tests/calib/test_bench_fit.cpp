@@ -183,9 +183,10 @@ TEST(BenchFit, DISABLED_Long_RecoversWhatTheRealPlateChanged)
         scene::calibration_input(scene_text(1.0, 0.041, 20, nominal_exciters, {}), "nominal.toml");
     const pipeline::CalibrationInput twin =
         scene::calibration_input(scene_text(0.96, eta_true, 28, moved, gains), "twin.toml");
-    std::vector<pipeline::BenchSensor> sensors = {{{0.11, 0.13}, pipeline::SensorQuantity::acceleration},
-                                                  {{0.24, 0.21}, pipeline::SensorQuantity::acceleration},
-                                                  {{0.17, 0.27}, pipeline::SensorQuantity::velocity}};
+    // One sensor 40 mm in from the middle of each edge that carries an exciter (docs/bench.md, "Sensors").
+    std::vector<pipeline::BenchSensor> sensors = {{{0.175, 0.31}, pipeline::SensorQuantity::acceleration},
+                                                  {{0.31, 0.175}, pipeline::SensorQuantity::acceleration},
+                                                  {{0.04, 0.175}, pipeline::SensorQuantity::velocity}};
     const pipeline::BenchModel model(nominal, setup_for(sensors));
     const pipeline::BenchMeasured measured = measured_on(twin, model);
     pipeline::BenchFitOptions opt;
@@ -203,10 +204,10 @@ TEST(BenchFit, DISABLED_Long_RecoversWhatTheRealPlateChanged)
     EXPECT_NEAR(r.fitted.loss_factor / eta_true, 1.0, 0.10);
     for (std::size_t e = 0; e < moved.size(); e++) {
         EXPECT_LT(pipeline::dist(r.fitted.exciters[e], moved[e]), 0.002) << "exciter " << e + 1;
-        // Measured: within 1 % but exciter 3's -5.7 %, 16 mm from a clamped edge
-        // (the model's 20-point grid against the twin's 28: their dispersion
-        // differs, and the edge's reflection weighs the position-gain trade).
-        EXPECT_NEAR(r.fitted.gains[e] / gains[e], 1.0, 0.07) << "exciter " << e + 1;
+        // Measured: positions within 0.09 mm, gains within 0.9 % (with three
+        // sensors in the middle instead, exciter 3, 16 mm from a clamped edge,
+        // came out 5.7 % low: docs/bench.md, "The sensor layout matters").
+        EXPECT_NEAR(r.fitted.gains[e] / gains[e], 1.0, 0.05) << "exciter " << e + 1;
     }
 }
 
