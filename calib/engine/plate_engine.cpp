@@ -51,24 +51,28 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     const Grid &g = op_->grid();
     nx_ = g.nx;
     ny_ = g.ny;
-    // Rows padded to whole 64-byte lines so every row starts aligned.
+    mirror_edges_ = mirror_edges_apply();
+    // Every row starts on a 64-byte line, one line after the row's storage
+    // begins (the ghost node at i = -1 sits at the end of that line), and
+    // ends with room for the ghost at i = nx + 1; a ghost row above and below.
     const std::ptrdiff_t per_line = std::ptrdiff_t(64 / sizeof(T));
-    stride_ = (std::ptrdiff_t(nx_ + 1) + per_line - 1) / per_line * per_line;
+    stride_ = per_line + (std::ptrdiff_t(nx_ + 2) + per_line - 1) / per_line * per_line;
     if (nx_ > 3 && ny_ > 3) {
         const std::size_t cells = std::size_t(nx_ - 3) * std::size_t(ny_ - 3);
         const int threads = options_.threads > 0 ? options_.threads : omp_get_max_threads();
         bulk_threads_ = cells >= options_.parallel_min_cells ? std::max(1, threads) : 1;
     }
-    const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 1);
+    const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 3);
     const std::size_t scratch = std::size_t(stride_) * std::size_t(bulk_threads_ * bulk_scratch_rows);
     const std::size_t total = 3 * level + scratch;
     storage_ = static_cast<T *>(std::aligned_alloc(64, total * sizeof(T)));
     if (!storage_)
         throw std::bad_alloc();
     std::memset(static_cast<void *>(storage_), 0, total * sizeof(T));
-    u_ = storage_;
-    inc_ = storage_ + level;
-    inc_before_ = storage_ + 2 * level;
+    const std::ptrdiff_t origin = stride_ + per_line; // node (0, 0)
+    u_ = storage_ + origin;
+    inc_ = storage_ + level + origin;
+    inc_before_ = storage_ + 2 * level + origin;
     scratch_ = storage_ + 3 * level;
 
     const Loss &loss = op_->params().loss;
@@ -80,8 +84,48 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     bulk_.g = T(d * (1 - loss.sigma0 * k_));
     bulk_.mu2 = T(d * mu2);
     bulk_.nu1 = T(d * nu1);
-    build_edge_rows();
+    if (!mirror_edges_)
+        build_edge_rows();
     build_rigid_modes();
+}
+
+// Clamped and simply supported edges (any mix): the assembled rows next to
+// them are the 13-point stencil with a ghost node mirrored across the edge
+// (w_-1 = +w_1 clamped, -w_1 supported; the boundary nodes w_0 = 0), and the
+// loss operator's the 5-point Laplacian with the boundary at zero, on a
+// uniform mass (test EngineMirrorEdges.RowsNextToTheEdgeAreTheMirroredStencil).
+// The bulk kernel then updates every unknown, after the ghosts are set from
+// u^n: no edge band at all, which cost 0.7 x the bulk on Fig. 7's 81 x 81
+// grid (docs/engine.md, "Where a step's time goes").
+template <typename T>
+bool PlateEngine<T>::mirror_edges_apply() const
+{
+    const Edges &e = op_->params().edges;
+    for (EdgeKind k : {e.left, e.right, e.bottom, e.top})
+        if (k != EdgeKind::clamped && k != EdgeKind::simply_supported)
+            return false;
+    if (options_.edge_band_always || nx_ < 4 || ny_ < 4)
+        return false;
+    const Eigen::VectorXd &m = op_->mass();
+    return m.size() > 0 && m.maxCoeff() == m.minCoeff();
+}
+
+template <typename T>
+void PlateEngine<T>::set_ghosts()
+{
+    const Edges &e = op_->params().edges;
+    auto sign = [](EdgeKind k) { return k == EdgeKind::clamped ? T(1) : T(-1); };
+    const T left = sign(e.left), right = sign(e.right), bottom = sign(e.bottom), top = sign(e.top);
+    const std::ptrdiff_t s = stride_;
+    for (int j = 0; j <= ny_; ++j) {
+        T *row = u_ + j * s;
+        row[-1] = left * row[1];
+        row[nx_ + 1] = right * row[nx_ - 1];
+    }
+    for (int i = -1; i <= nx_ + 1; ++i) {
+        u_[-s + i] = bottom * u_[s + i];
+        u_[(ny_ + 1) * s + i] = top * u_[(ny_ - 1) * s + i];
+    }
 }
 
 template <typename T>
@@ -177,11 +221,18 @@ template <bool Lossy>
 void PlateEngine<T>::step_impl()
 {
     // The edge band first, into band_next_: its strains read u^n and d^n
-    // around the band, which the bulk then updates in place.
-    edge_band_update<Lossy>();
+    // around the band, which the bulk then updates in place. Mirrored edges
+    // have no band: the ghosts of u^n, and the bulk runs up to the edge.
+    int margin = 2;
+    if (mirror_edges_) {
+        set_ghosts();
+        margin = 1;
+    } else {
+        edge_band_update<Lossy>();
+    }
     const double g = double(bulk_.g);
     // The bulk: d^{n+1} into inc_before_ (d^{n-1} is no longer needed), u in place.
-    const int i0 = 2, i1 = nx_ - 1, j0 = 2, j1 = ny_ - 1;
+    const int i0 = margin, i1 = nx_ + 1 - margin, j0 = margin, j1 = ny_ + 1 - margin;
     if (i1 > i0 && j1 > j0)
         bulk_update_threads<T, Lossy>(u_, inc_, inc_before_, stride_, i0, i1, j0, j1, bulk_, bulk_threads_, scratch_);
     for (const BandRow &row : band_rows_) {

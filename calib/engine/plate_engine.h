@@ -23,6 +23,7 @@ struct EngineOptions {
     int threads = 0;                           // 0: OpenMP's default
     std::size_t parallel_min_cells = 1u << 16; // smaller interiors run on one thread (fork/join costs more)
     bool skip_stability_check = false;         // tests only: lets a test show the bound is real
+    bool edge_band_always = false;             // tests and benchmarks: sparse edge rows even where ghosts would do
 };
 
 // Sets flush-to-zero and denormals-are-zero on this thread and on OpenMP's
@@ -60,6 +61,9 @@ class PlateEngine final : public PointField {
     std::size_t steps_done() const { return steps_; }
     // Whether step() runs its bulk update on an OpenMP team.
     bool threaded() const { return bulk_threads_ > 1; }
+    // Whether the edges are ghost mirrors (clamped and supported edges) rather
+    // than an edge band of sparse rows (any free edge).
+    bool mirror_edges() const { return mirror_edges_; }
 
     // Point force (N) with bilinear spreading; the receiver reads the
     // displacement with the same weights, which makes A->B equal B->A.
@@ -139,6 +143,9 @@ class PlateEngine final : public PointField {
     };
     template <bool Lossy>
     void step_impl();
+    // Clamped and supported edges only: ghost nodes instead of an edge band.
+    bool mirror_edges_apply() const;
+    void set_ghosts(); // the ghosts of the newest u
     // Rigid-body momenta (free plates): see build_rigid_modes().
     void build_rigid_modes();
     std::array<double, 3> raw_moments() const;
@@ -156,6 +163,7 @@ class PlateEngine final : public PointField {
     std::ptrdiff_t stride_ = 0;
     std::size_t steps_ = 0;
     int bulk_threads_ = 1;
+    bool mirror_edges_ = false;
     T *storage_ = nullptr;
     T *u_ = nullptr, *inc_ = nullptr, *inc_before_ = nullptr; // u^n, d^n, d^{n-1} (before a step)
     T *scratch_ = nullptr; // the bulk kernel's rows, bulk_threads_ * bulk_scratch_rows

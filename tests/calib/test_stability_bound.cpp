@@ -94,6 +94,33 @@ TEST(PlateStability, LanczosAgreesWithTheDenseSolver)
     EXPECT_NEAR(lanczos / dense, 1.0, 1e-9);
 }
 
+// Gershgorin's bound is an upper bound of the exact (dense) largest eigenvalue
+// for every edge combination, of the stiffness and of the loss operator; on
+// clamped and supported plates it lies inside the interior supremum, which is
+// then the bound without a Lanczos run (the same value Lanczos gave: the
+// supremum, its Ritz value lying below).
+TEST(PlateStability, GershgorinBoundsTheLargestEigenvalueAndProvesTheSupremumWhereItCan)
+{
+    for (const Edges &e : all_edge_combinations()) {
+        auto op = make_plate(12, 9, 0.01, e);
+        const double dense = largest_generalized_eigenvalue(op->stiffness(), op->mass(), 100000);
+        EXPECT_GE(gershgorin_bound(op->stiffness(), op->mass()), dense * (1 - 1e-12)) << describe(e);
+        const double dense_g = largest_generalized_eigenvalue(op->dirichlet(), op->mass(), 100000);
+        EXPECT_GE(gershgorin_bound(op->dirichlet(), op->mass()), dense_g * (1 - 1e-12)) << describe(e);
+    }
+    const double h = 0.01;
+    for (EdgeKind k : {EdgeKind::clamped, EdgeKind::simply_supported}) {
+        auto op = make_plate(40, 35, h, Edges::all(k)); // 1400 unknowns or more: past the dense limit
+        const double sup = 64 * op->kappa() * op->kappa() / std::pow(h, 4);
+        EXPECT_LE(gershgorin_bound(op->stiffness(), op->mass()), sup * (1 + 1e-12)) << describe(Edges::all(k));
+        EXPECT_EQ(op->lambda_max_stiffness(), sup) << describe(Edges::all(k));
+        EXPECT_LE(largest_generalized_eigenvalue(op->stiffness(), op->mass(), 0), sup) << describe(Edges::all(k));
+    }
+    // A free edge's rows reach past the interior disc: Lanczos decides there.
+    auto free = make_plate(40, 35, h, Edges::all(EdgeKind::free));
+    EXPECT_GT(gershgorin_bound(free->stiffness(), free->mass()), 64 * free->kappa() * free->kappa() / std::pow(h, 4));
+}
+
 // ---- the bound, every edge combination, float ----
 
 TEST(StabilityBound, EveryEdgeCombinationInFloatAtNinetyNinePercentOfTheBound)

@@ -1,0 +1,195 @@
+// `calibgen simulate` end to end against a plain loop doing the same job:
+// the Fig. 7 acrylic plate (0.7 x 0.7 m, 2 mm, clamped, the Fig. 7 loss) on
+// n x n intervals, float, one impulse source, one receiver read every step,
+// `steps` steps. Ours: engine::Simulation, timed from its construction
+// (operator assembly, stability bound) to the last trace sample. The plain
+// loop: the lossy leapfrog (13-point biharmonic, sigma0 and sigma1 terms)
+// over a field with two ghost rows and columns, the clamped edge as the
+// ghosts' mirror image, the source added and the receiver read in the loop;
+// compiled with the same flags and the same run-time ISA dispatch as our
+// kernels (GCC target clones: AVX-512, AVX2+FMA, baseline). The two are
+// timed in alternating rounds in one process, fastest round of each (the
+// machine is shared). Reports x_plain (plain time / ours) per grid and
+// thread count, and the share of ours spent before the first step.
+//
+//   build/bench/bench/bench_simulate [--benchmark_filter=...]
+#include "engine/plate_kernels.h"
+#include "engine/simulation.h"
+#include "physics/material.h"
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+#include <vector>
+
+using namespace calib::engine;
+
+namespace {
+
+constexpr double side_m = 0.7;
+
+PlateParams fig7_plate()
+{
+    PlateParams p;
+    p.size_x_m = side_m;
+    p.size_y_m = side_m;
+    p.thickness_m = 0.002;
+    p.material = calib::physics::material_from_elastic(1200, 4.76e9, 0.38, "acrylic");
+    p.edges = Edges::all(EdgeKind::clamped);
+    // Fig. 7's two-point law (T60 0.54 s at 100 Hz, 0.18 s at 300 Hz) as sigma0 + sigma1 omega / kappa.
+    const double kappa = std::sqrt(p.material.youngs_pa * p.thickness_m * p.thickness_m /
+                                   (12 * p.material.density_kg_m3 * (1 - p.material.poisson * p.material.poisson)));
+    const double r1 = 3 * std::log(10.0) / 0.54, r2 = 3 * std::log(10.0) / 0.18;
+    const double w1 = 2 * M_PI * 100, w2 = 2 * M_PI * 300;
+    p.loss.sigma1 = (r2 - r1) / ((w2 - w1) / kappa);
+    p.loss.sigma0 = r1 - p.loss.sigma1 * w1 / kappa;
+    return p;
+}
+
+struct Job {
+    int n;
+    std::size_t steps;
+    int threads;
+};
+
+// Ours, end to end; returns the seconds and the setup's share.
+double run_ours(const Job &job, double &setup_s, double &checksum)
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    const double h = side_m / job.n;
+    auto op = std::make_shared<PlateOperator>(fig7_plate(), Grid{job.n, job.n, h});
+    SimulationOptions o;
+    o.precision = Precision::f32;
+    o.engine.threads = job.threads;
+    Simulation sim(op, o);
+    sim.add_source(0.3 * side_m, 0.41 * side_m);
+    sim.add_receiver(0.62 * side_m, 0.55 * side_m);
+    sim.set_source_impulse(0);
+    setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    sim.run(job.steps);
+    checksum = sim.traces()[0].back();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The plain loop's step over (n + 5)^2 nodes: two ghost layers, node (i, j)
+// of the plate at index (j + 2) s + i + 2; the boundary nodes stay zero.
+template <typename T>
+inline __attribute__((always_inline)) void plain_lossy_step(const T *u, const T *up, T *un, int n, std::ptrdiff_t s,
+                                                            T mu2, T nu1, T a, T b)
+{
+    for (int j = 3; j <= n + 1; ++j)
+        for (int i = 3; i <= n + 1; ++i) {
+            const std::ptrdiff_t c = j * s + i;
+            const T bih = 20 * u[c] - 8 * (u[c - 1] + u[c + 1] + u[c - s] + u[c + s]) +
+                          2 * (u[c - s - 1] + u[c - s + 1] + u[c + s - 1] + u[c + s + 1]) + u[c - 2] + u[c + 2] +
+                          u[c - 2 * s] + u[c + 2 * s];
+            const T lap = u[c - 1] + u[c + 1] + u[c - s] + u[c + s] - 4 * u[c];
+            const T lapp = up[c - 1] + up[c + 1] + up[c - s] + up[c + s] - 4 * up[c];
+            un[c] = a * (2 * u[c] - mu2 * bih + nu1 * (lap - lapp)) - b * up[c];
+        }
+}
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define BENCH_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define BENCH_CLONES
+#endif
+BENCH_CLONES void plain_lossy_step_isa(const float *u, const float *up, float *un, int n, std::ptrdiff_t s, float mu2,
+                                       float nu1, float a, float b)
+{
+    plain_lossy_step(u, up, un, n, s, mu2, nu1, a, b);
+}
+
+// Clamped: w = 0 on the boundary, the ghost beyond it the mirror of the first interior node.
+void clamp_ghosts(float *u, int n, std::ptrdiff_t s)
+{
+    for (int k = 2; k <= n + 2; ++k) {
+        u[k * s + 1] = u[k * s + 3];
+        u[k * s + n + 3] = u[k * s + n + 1];
+        u[1 * s + k] = u[3 * s + k];
+        u[(n + 3) * s + k] = u[(n + 1) * s + k];
+    }
+}
+
+double run_plain(const Job &job, double k, double &checksum)
+{
+    const auto t0 = std::chrono::steady_clock::now();
+    const PlateParams p = fig7_plate();
+    const int n = job.n;
+    const double h = side_m / n;
+    const double kappa = std::sqrt(p.material.youngs_pa * p.thickness_m * p.thickness_m /
+                                   (12 * p.material.density_kg_m3 * (1 - p.material.poisson * p.material.poisson)));
+    const double d = 1 / (1 + p.loss.sigma0 * k);
+    const auto mu2 = float(kappa * kappa * k * k / (h * h * h * h));
+    const auto nu1 = float(2 * p.loss.sigma1 * k / (h * h));
+    const auto a = float(d), b = float(d * (1 - p.loss.sigma0 * k));
+    const std::ptrdiff_t s = (n + 5 + 15) / 16 * 16;
+    const std::size_t level = std::size_t(s) * std::size_t(n + 5);
+    std::vector<float> mem(3 * level, 0.0f);
+    float *up = mem.data(), *u = up + level, *un = u + level;
+    const std::ptrdiff_t src = std::ptrdiff_t(std::lround(0.41 * n) + 2) * s + std::lround(0.3 * n) + 2;
+    const std::ptrdiff_t rec = std::ptrdiff_t(std::lround(0.55 * n) + 2) * s + std::lround(0.62 * n) + 2;
+    const auto kick = float(k * k / (p.material.density_kg_m3 * p.thickness_m * h * h) / k);
+    std::vector<double> trace;
+    trace.reserve(job.steps);
+    for (std::size_t t = 0; t < job.steps; ++t) {
+        plain_lossy_step_isa(u, up, un, n, s, mu2, nu1, a, b);
+        if (t == 0)
+            un[src] += kick;
+        clamp_ghosts(un, n, s);
+        trace.push_back(un[rec]);
+        float *old = up;
+        up = u;
+        u = un;
+        un = old;
+    }
+    checksum = trace.back();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void BM_SimulateEndToEnd(benchmark::State &state)
+{
+    const Job job{int(state.range(0)), std::size_t(state.range(1)), int(state.range(2))};
+    double setup = 0, sum = 0, best_ours = 1e300, best_plain = 1e300, best_setup = 0;
+    const double k = [&] {
+        auto op = std::make_shared<PlateOperator>(fig7_plate(), Grid{job.n, job.n, side_m / job.n});
+        return 0.95 * op->max_time_step();
+    }();
+    for (auto _ : state) {
+        const double ours = run_ours(job, setup, sum);
+        benchmark::DoNotOptimize(sum);
+        const double plain = run_plain(job, k, sum);
+        benchmark::DoNotOptimize(sum);
+        if (ours < best_ours) {
+            best_ours = ours;
+            best_setup = setup;
+        }
+        best_plain = std::min(best_plain, plain);
+    }
+    const double cells = double(job.n - 1) * double(job.n - 1) * double(job.steps);
+    state.counters["x_plain"] = best_plain / best_ours;
+    state.counters["ours_Gcell/s"] = cells / best_ours * 1e-9;
+    state.counters["plain_Gcell/s"] = cells / best_plain * 1e-9;
+    state.counters["setup_share"] = best_setup / best_ours;
+    state.SetLabel(bulk_update_isa());
+}
+
+} // namespace
+
+// n, steps, threads. 81: Fig. 7's grid and a calibration's simulation length;
+// 330: the plate at f_max 12 kHz; 1024: a large grid, fewer steps.
+BENCHMARK(BM_SimulateEndToEnd)
+    ->Args({81, 14300, 1})
+    ->Args({330, 4000, 1})
+    ->Args({330, 4000, 2})
+    ->Args({1024, 400, 1})
+    ->Args({1024, 400, 2})
+    ->Iterations(3)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+BENCHMARK_MAIN();

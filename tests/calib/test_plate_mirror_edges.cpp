@@ -1,0 +1,185 @@
+// Clamped and simply supported edges run without an edge band: the engine
+// sets ghost nodes mirrored across each edge and lets the bulk kernel update
+// every unknown. That is only right if the assembled operator's rows next to
+// such an edge are the mirrored 13-point stencil (and the loss operator's the
+// 5-point Laplacian with the boundary at zero): checked here coefficient by
+// coefficient against stencils built by hand, and the two engines (ghosts,
+// and the sparse edge rows forced) checked against each other over a run,
+// for every mix of the two edge kinds, with loss, in double and float.
+#include "engine/plate_engine.h"
+#include "test_plate_util.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <string>
+#include <utility>
+
+using namespace plate_test;
+
+namespace {
+
+std::string name_of(const Edges &e)
+{
+    auto n = [](EdgeKind k) { return k == EdgeKind::clamped ? "C" : k == EdgeKind::free ? "F" : "S"; };
+    return std::string(n(e.left)) + n(e.right) + n(e.bottom) + n(e.top);
+}
+
+// Every mix of clamped and supported edges (16).
+std::vector<Edges> mirror_mixes()
+{
+    std::vector<Edges> out;
+    for (int m = 0; m < 16; ++m) {
+        auto k = [&](int b) { return (m >> b) & 1 ? EdgeKind::simply_supported : EdgeKind::clamped; };
+        out.push_back({k(0), k(1), k(2), k(3)});
+    }
+    return out;
+}
+
+} // namespace
+
+TEST(EngineMirrorEdges, RowsNextToTheEdgeAreTheMirroredStencil)
+{
+    const int nx = 11, ny = 9;
+    const double h = 0.01;
+    for (const Edges &e : mirror_mixes()) {
+        auto op = make_plate(nx, ny, h, e, 0.3, Loss{1.0, 2e-4});
+        const double kscale = op->kappa() * op->kappa() / std::pow(h, 4), gscale = 1 / (h * h);
+        auto unknown = [&](int i, int j) { return op->unknown_of()[op->grid().node(i, j)]; };
+        auto sign = [](EdgeKind k) { return k == EdgeKind::clamped ? 1.0 : -1.0; };
+        double worst_k = 0, worst_g = 0;
+        for (int j = 1; j < ny; ++j)
+            for (int i = 1; i < nx; ++i) {
+                // The hand-built rows: a ghost beyond an edge is the mirror of the
+                // node inside, times the edge's sign; boundary nodes are zero.
+                std::map<std::pair<int, int>, double> k_row, g_row;
+                auto add = [&](std::map<std::pair<int, int>, double> &row, int a, int b, double c) {
+                    if (a < 0)
+                        a = -a, c *= sign(e.left);
+                    if (a > nx)
+                        a = 2 * nx - a, c *= sign(e.right);
+                    if (b < 0)
+                        b = -b, c *= sign(e.bottom);
+                    if (b > ny)
+                        b = 2 * ny - b, c *= sign(e.top);
+                    if (a > 0 && a < nx && b > 0 && b < ny)
+                        row[{a, b}] += c;
+                };
+                add(k_row, i, j, 20);
+                add(g_row, i, j, 4);
+                for (auto [a, b] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+                    add(k_row, i + a, j + b, -8);
+                    add(k_row, i + 2 * a, j + 2 * b, 1);
+                    add(g_row, i + a, j + b, -1);
+                }
+                for (auto [a, b] : {std::pair{1, 1}, {-1, 1}, {1, -1}, {-1, -1}})
+                    add(k_row, i + a, j + b, 2);
+                const auto u = unknown(i, j);
+                const double m = op->mass()[u];
+                auto compare = [&](const PlateOperator::SparseMatrix &a,
+                                   const std::map<std::pair<int, int>, double> &want, double scale, double &worst) {
+                    double got_sum = 0, want_sum = 0;
+                    for (PlateOperator::SparseMatrix::InnerIterator it(a, u); it; ++it)
+                        got_sum += std::abs(it.value()) / m / scale;
+                    for (const auto &[ij, c] : want) {
+                        worst = std::max(worst, std::abs(a.coeff(u, unknown(ij.first, ij.second)) / m / scale - c));
+                        want_sum += std::abs(c);
+                    }
+                    worst = std::max(worst, std::abs(got_sum - want_sum)); // and nothing else in the row
+                };
+                compare(op->stiffness(), k_row, kscale, worst_k);
+                compare(op->dirichlet(), g_row, gscale, worst_g);
+            }
+        EXPECT_LT(worst_k, 1e-12) << name_of(e);
+        EXPECT_LT(worst_g, 1e-12) << name_of(e);
+        EXPECT_EQ(op->mass().maxCoeff(), op->mass().minCoeff()) << name_of(e);
+    }
+}
+
+namespace {
+
+// The ghost engine and the edge-band engine from the same random state: the
+// largest difference of the fields after `steps`, over the largest value.
+template <typename T>
+double ghost_against_band(const Edges &e, std::size_t steps, bool &mirrored)
+{
+    auto op = make_plate(23, 17, 0.01, e, 0.3, Loss{2.0, 5e-4});
+    const double k = 0.9 * op->max_time_step();
+    EngineOptions band_opt;
+    band_opt.edge_band_always = true;
+    PlateEngine<T> ghost(op, k), band(op, k, band_opt);
+    mirrored = ghost.mirror_edges() && !band.mirror_edges();
+    const auto a = random_field(*op, 5), b = random_field(*op, 6);
+    ghost.set_state(a, b);
+    band.set_state(a, b);
+    const std::size_t src = ghost.add_source(0.071, 0.093);
+    band.add_source(0.071, 0.093);
+    for (std::size_t n = 0; n < steps; ++n) {
+        const double f = n < 40 ? std::sin(0.3 * double(n)) : 0.0;
+        ghost.set_source_force(src, f);
+        band.set_source_force(src, f);
+        ghost.step();
+        band.step();
+    }
+    const auto x = ghost.displacement(), y = band.displacement();
+    double diff = 0, peak = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        diff = std::max(diff, std::abs(x[i] - y[i]));
+        peak = std::max(peak, std::abs(y[i]));
+    }
+    EXPECT_GT(peak, 0.0);
+    return diff / peak;
+}
+
+} // namespace
+
+TEST(EngineMirrorEdges, GhostsAndEdgeRowsGiveTheSameRunToRoundOff)
+{
+    for (const Edges &e : mirror_mixes()) {
+        bool mirrored = false;
+        // Double: the two differ only in summation order (the band sums in double too).
+        EXPECT_LT(ghost_against_band<double>(e, 2000, mirrored), 1e-11) << name_of(e);
+        EXPECT_TRUE(mirrored) << name_of(e);
+        // Float: the band rows sum in double, the bulk in float; 2000 steps of
+        // float round-off, against a field of order one.
+        EXPECT_LT(ghost_against_band<float>(e, 2000, mirrored), 1e-4) << name_of(e);
+    }
+}
+
+TEST(EngineMirrorEdges, AFreeEdgeKeepsTheEdgeBand)
+{
+    for (EdgeKind free_side : {EdgeKind::free}) {
+        auto op = make_plate(12, 10, 0.01, {EdgeKind::clamped, free_side, EdgeKind::clamped, EdgeKind::clamped});
+        PlateEngine<double> eng(op, 0.9 * op->max_time_step());
+        EXPECT_FALSE(eng.mirror_edges());
+    }
+    auto op = make_plate(12, 10, 0.01, Edges::all(EdgeKind::simply_supported));
+    PlateEngine<double> eng(op, 0.9 * op->max_time_step());
+    EXPECT_TRUE(eng.mirror_edges());
+}
+
+TEST(EngineMirrorEdges, EnergyIsConservedWithoutLossAndFallsWithIt)
+{
+    for (const Edges &e : mirror_mixes()) {
+        for (Loss loss : {Loss{}, Loss{3.0, 1e-3}}) {
+            auto op = make_plate(19, 14, 0.01, e, 0.3, loss);
+            PlateEngine<double> eng(op, 0.95 * op->max_time_step());
+            ASSERT_TRUE(eng.mirror_edges());
+            eng.set_state(random_field(*op, 3), random_field(*op, 4));
+            double before = eng.energy(), worst_rise = 0;
+            const double e0 = before;
+            for (int n = 0; n < 3000; ++n) {
+                eng.step();
+                const double now = eng.energy();
+                worst_rise = std::max(worst_rise, (now - before) / e0);
+                before = now;
+            }
+            if (!loss.active())
+                EXPECT_LT(std::abs(before / e0 - 1), 1e-11) << name_of(e);
+            else
+                EXPECT_LT(before, 0.5 * e0) << name_of(e);
+            EXPECT_LT(worst_rise, 1e-12) << name_of(e);
+        }
+    }
+}
