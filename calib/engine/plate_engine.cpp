@@ -89,25 +89,19 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     build_rigid_modes();
 }
 
-// Clamped and simply supported edges (any mix): the assembled rows next to
-// them are the 13-point stencil with a ghost node mirrored across the edge
-// (w_-1 = +w_1 clamped, -w_1 supported; the boundary nodes w_0 = 0), and the
-// loss operator's the 5-point Laplacian with the boundary at zero, on a
-// uniform mass (test EngineMirrorEdges.RowsNextToTheEdgeAreTheMirroredStencil).
-// The bulk kernel then updates every unknown, after the ghosts are set from
-// u^n: no edge band at all, which cost 0.7 x the bulk on Fig. 7's 81 x 81
-// grid (docs/engine.md, "Where a step's time goes").
+// Clamped and simply supported edges (any mix, PlateOperator::mirror_edges()):
+// the assembled rows next to them are the 13-point stencil with a ghost node
+// mirrored across the edge (w_-1 = +w_1 clamped, -w_1 supported; the
+// boundary nodes w_0 = 0), and the loss operator's the 5-point Laplacian with
+// the boundary at zero, on a uniform mass (test
+// EngineMirrorEdges.RowsNextToTheEdgeAreTheMirroredStencil). The bulk kernel
+// then updates every unknown, after the ghosts are set from u^n: no edge band
+// at all, which cost 0.7 x the bulk on Fig. 7's 81 x 81 grid (docs/engine.md,
+// "Where a step's time goes").
 template <typename T>
 bool PlateEngine<T>::mirror_edges_apply() const
 {
-    const Edges &e = op_->params().edges;
-    for (EdgeKind k : {e.left, e.right, e.bottom, e.top})
-        if (k != EdgeKind::clamped && k != EdgeKind::simply_supported)
-            return false;
-    if (options_.edge_band_always || nx_ < 4 || ny_ < 4)
-        return false;
-    const Eigen::VectorXd &m = op_->mass();
-    return m.size() > 0 && m.maxCoeff() == m.minCoeff();
+    return op_->mirror_edges() && !options_.edge_band_always && nx_ >= 4 && ny_ >= 4;
 }
 
 template <typename T>

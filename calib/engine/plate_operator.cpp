@@ -121,7 +121,16 @@ PlateOperator::PlateOperator(const PlateParams &params, const Grid &grid) : para
         throw std::invalid_argument("plate loss coefficients must be >= 0");
     bending_stiffness_ = params.material.bending_stiffness(params.thickness_m);
     kappa_ = params.material.kappa(params.thickness_m);
-    assemble();
+    assemble(false);
+    const Edges &e = params_.edges;
+    mirror_edges_ = mass_.maxCoeff() == mass_.minCoeff();
+    for (EdgeKind k : {e.left, e.right, e.bottom, e.top})
+        mirror_edges_ = mirror_edges_ && (k == EdgeKind::clamped || k == EdgeKind::simply_supported);
+}
+
+void PlateOperator::assemble_matrices() const
+{
+    std::call_once(matrices_once_, [this] { const_cast<PlateOperator *>(this)->assemble(true); });
 }
 
 double PlateOperator::mass_weight(int i, int j) const
@@ -133,7 +142,7 @@ double PlateOperator::mass_weight(int i, int j) const
     return wx * wy;
 }
 
-void PlateOperator::assemble()
+void PlateOperator::assemble(bool matrices)
 {
     const int nx = grid_.nx, ny = grid_.ny;
     const double h = grid_.h;
@@ -141,31 +150,33 @@ void PlateOperator::assemble()
     const double nu = params_.material.poisson;
     const double rho_d = params_.material.density_kg_m3 * params_.thickness_m;
 
-    unknown_of_.assign(grid_.node_count(), -1);
-    node_of_.clear();
-    for (int j = 0; j <= ny; ++j)
-        for (int i = 0; i <= nx; ++i) {
-            const bool fixed = (i == 0 && e.left != EdgeKind::free) || (i == nx && e.right != EdgeKind::free) ||
-                               (j == 0 && e.bottom != EdgeKind::free) || (j == ny && e.top != EdgeKind::free);
-            if (!fixed) {
-                unknown_of_[grid_.node(i, j)] = std::ptrdiff_t(node_of_.size());
-                node_of_.push_back(grid_.node(i, j));
+    if (!matrices) {
+        unknown_of_.assign(grid_.node_count(), -1);
+        node_of_.clear();
+        for (int j = 0; j <= ny; ++j)
+            for (int i = 0; i <= nx; ++i) {
+                const bool fixed = (i == 0 && e.left != EdgeKind::free) || (i == nx && e.right != EdgeKind::free) ||
+                                   (j == 0 && e.bottom != EdgeKind::free) || (j == ny && e.top != EdgeKind::free);
+                if (!fixed) {
+                    unknown_of_[grid_.node(i, j)] = std::ptrdiff_t(node_of_.size());
+                    node_of_.push_back(grid_.node(i, j));
+                }
             }
+        const Eigen::Index n = Eigen::Index(node_of_.size());
+        if (n == 0)
+            throw std::invalid_argument("plate grid has no free nodes (too coarse for its edges)");
+
+        mass_.resize(n);
+        for (Eigen::Index u = 0; u < n; ++u) {
+            const std::size_t node = node_of_[std::size_t(u)];
+            const int i = int(node % std::size_t(nx + 1)), j = int(node / std::size_t(nx + 1));
+            mass_[u] = rho_d * h * h * mass_weight(i, j);
         }
+        edge_stencils_.clear();
+        edge_stiffness_terms_.clear();
+        edge_dirichlet_terms_.clear();
+    } // else: the unknowns, the mass and the edge terms are the constructor's
     const Eigen::Index n = Eigen::Index(node_of_.size());
-    if (n == 0)
-        throw std::invalid_argument("plate grid has no free nodes (too coarse for its edges)");
-
-    mass_.resize(n);
-    for (Eigen::Index u = 0; u < n; ++u) {
-        const std::size_t node = node_of_[std::size_t(u)];
-        const int i = int(node % std::size_t(nx + 1)), j = int(node / std::size_t(nx + 1));
-        mass_[u] = rho_d * h * h * mass_weight(i, j);
-    }
-
-    edge_stencils_.clear();
-    edge_stiffness_terms_.clear();
-    edge_dirichlet_terms_.clear();
     // Terms of the factored form that touch the edge band, with their
     // stencils (every coefficient an integer times scale). A stencil is kept
     // once per node or cell: `id` caches it (-1: not yet made).
@@ -192,13 +203,15 @@ void PlateOperator::assemble()
     };
     auto edge_term = [&](std::vector<FormTerm> &terms, const Row &ra, std::ptrdiff_t &ia, const Row &rb,
                          std::ptrdiff_t &ib, double scale, double weight) {
-        if (touches_band(ra) || touches_band(rb))
+        if (!matrices && (touches_band(ra) || touches_band(rb)))
             terms.push_back({edge_stencil(ra, scale, ia), edge_stencil(rb, scale, ib), weight});
     };
 
     std::vector<Eigen::Triplet<double>> tk, tg;
     // Adds scale * (r1 r2^T + r2 r1^T)/2 (symmetric outer product) over the unknowns.
     auto add_outer = [&](std::vector<Eigen::Triplet<double>> &t, const Row &r1, const Row &r2, double scale) {
+        if (!matrices)
+            return;
         for (const Term &a : r1) {
             const std::ptrdiff_t ua = unknown_of_[grid_.node(a.i, a.j)];
             if (ua < 0)
@@ -269,6 +282,8 @@ void PlateOperator::assemble()
                 edge_term(edge_dirichlet_terms_, r, sl, r, sl, inv_h, rho_d * h * h * w);
             }
         }
+    if (!matrices)
+        return;
     stiffness_.resize(n, n);
     stiffness_.setFromTriplets(tk.begin(), tk.end());
     stiffness_.prune(0.0);
@@ -304,17 +319,26 @@ double bounded_lambda_max(const SparseRowMatrix &a, const Eigen::VectorXd &mass,
 
 } // namespace
 
+// Mirrored edges (clamped and supported, uniform mass) past the dense limit:
+// every row is the interior stencil with ghost coefficients folded in or
+// dropped, so its disc lies inside the interior one (|a + b| <= |a| + |b|)
+// and the supremum is the bound without assembling anything (the same value
+// Gershgorin's test gives: PlateStability.GershgorinBounds...).
 double PlateOperator::lambda_max_stiffness() const
 {
+    const double sup = 64 * kappa_ * kappa_ / std::pow(grid_.h, 4);
     if (lambda_k_ < 0)
-        lambda_k_ = bounded_lambda_max(stiffness_, mass_, 64 * kappa_ * kappa_ / std::pow(grid_.h, 4));
+        lambda_k_ =
+            mirror_edges_ && mass_.size() > dense_eigen_limit ? sup : bounded_lambda_max(stiffness(), mass_, sup);
     return lambda_k_;
 }
 
 double PlateOperator::lambda_max_dirichlet() const
 {
+    const double sup = 8 / (grid_.h * grid_.h);
     if (lambda_g_ < 0)
-        lambda_g_ = bounded_lambda_max(dirichlet_, mass_, 8 / (grid_.h * grid_.h));
+        lambda_g_ =
+            mirror_edges_ && mass_.size() > dense_eigen_limit ? sup : bounded_lambda_max(dirichlet(), mass_, sup);
     return lambda_g_;
 }
 

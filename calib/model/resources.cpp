@@ -151,8 +151,16 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
     const double mb = 1024.0 * 1024.0;
     const engine::Precision prec = s.effects.thick_plate ? engine::Precision::f64 : s.simulation.precision;
     // Building the plate peaks at its operator's assembly (the triplets next to
-    // the finished matrices), whatever runs on it after.
-    double memory_mb = current_rss_mb() + engine::plate_operator_bytes(std::size_t(nodes)) / mb, node_steps = 0;
+    // the finished matrices), whatever runs on it after; a simulation on
+    // clamped and supported edges assembles no matrix (its engine steps the
+    // mirrored stencil), only the unknowns' maps and masses.
+    const engine::Edges &edges = pl.edges;
+    const bool any_free = edges.left == engine::EdgeKind::free || edges.right == engine::EdgeKind::free ||
+                          edges.bottom == engine::EdgeKind::free || edges.top == engine::EdgeKind::free;
+    const double operator_bytes = !calibration && !any_free && !s.effects.thick_plate
+                                      ? 32.0 * nodes
+                                      : engine::plate_operator_bytes(std::size_t(nodes));
+    double memory_mb = current_rss_mb() + operator_bytes / mb, node_steps = 0;
     double output_seconds = 0;
     std::string cause;
     if (!calibration) {
@@ -229,10 +237,7 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
     // time step), so on a fine grid with a short run the set-up is most of the
     // time. Clamped and supported edges need none (Gershgorin's bound proves
     // the interior one: engine/plate_operator.cpp).
-    const engine::Edges &e = pl.edges;
-    const bool lanczos = e.left == engine::EdgeKind::free || e.right == engine::EdgeKind::free ||
-                         e.bottom == engine::EdgeKind::free || e.top == engine::EdgeKind::free;
-    const double setup_node_steps = lanczos ? nodes * 2.0 * engine::lanczos_max_iterations * 8.0 : 0.0;
+    const double setup_node_steps = any_free ? nodes * 2.0 * engine::lanczos_max_iterations * 8.0 : 0.0;
     const double seconds = (node_steps + setup_node_steps) * small_plate_seconds_per_node_step() + output_seconds;
     refuse_if_over(s.file, memory_mb, seconds, limits, cause);
 }
