@@ -57,6 +57,11 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     // ends with room for the ghost at i = nx + 1; a ghost row above and below.
     const std::ptrdiff_t per_line = std::ptrdiff_t(64 / sizeof(T));
     stride_ = per_line + (std::ptrdiff_t(nx_ + 2) + per_line - 1) / per_line * per_line;
+    // Not a multiple of 4 KiB: the stencil's five rows would share their L1
+    // sets (and alias in the store buffer); on 997 x 997 that made a step 1.7x
+    // slower.
+    if (stride_ * std::ptrdiff_t(sizeof(T)) % 4096 == 0)
+        stride_ += per_line;
     if (nx_ > 3 && ny_ > 3) {
         const std::size_t cells = std::size_t(nx_ - 3) * std::size_t(ny_ - 3);
         const int threads = options_.threads > 0 ? options_.threads : omp_get_max_threads();
