@@ -142,7 +142,7 @@ double PlateOperator::mass_weight(int i, int j) const
     return wx * wy;
 }
 
-void PlateOperator::assemble(bool matrices)
+void PlateOperator::assemble(bool form)
 {
     const int nx = grid_.nx, ny = grid_.ny;
     const double h = grid_.h;
@@ -150,7 +150,7 @@ void PlateOperator::assemble(bool matrices)
     const double nu = params_.material.poisson;
     const double rho_d = params_.material.density_kg_m3 * params_.thickness_m;
 
-    if (!matrices) {
+    if (!form) {
         unknown_of_.assign(grid_.node_count(), -1);
         node_of_.clear();
         for (int j = 0; j <= ny; ++j)
@@ -175,7 +175,8 @@ void PlateOperator::assemble(bool matrices)
         edge_stencils_.clear();
         edge_stiffness_terms_.clear();
         edge_dirichlet_terms_.clear();
-    } // else: the unknowns, the mass and the edge terms are the constructor's
+        return; // the form (the matrices and the edge terms) on first use
+    }
     const Eigen::Index n = Eigen::Index(node_of_.size());
     // Terms of the factored form that touch the edge band, with their
     // stencils (every coefficient an integer times scale). A stencil is kept
@@ -203,15 +204,13 @@ void PlateOperator::assemble(bool matrices)
     };
     auto edge_term = [&](std::vector<FormTerm> &terms, const Row &ra, std::ptrdiff_t &ia, const Row &rb,
                          std::ptrdiff_t &ib, double scale, double weight) {
-        if (!matrices && (touches_band(ra) || touches_band(rb)))
+        if (touches_band(ra) || touches_band(rb))
             terms.push_back({edge_stencil(ra, scale, ia), edge_stencil(rb, scale, ib), weight});
     };
 
     std::vector<Eigen::Triplet<double>> tk, tg;
     // Adds scale * (r1 r2^T + r2 r1^T)/2 (symmetric outer product) over the unknowns.
     auto add_outer = [&](std::vector<Eigen::Triplet<double>> &t, const Row &r1, const Row &r2, double scale) {
-        if (!matrices)
-            return;
         for (const Term &a : r1) {
             const std::ptrdiff_t ua = unknown_of_[grid_.node(a.i, a.j)];
             if (ua < 0)
@@ -282,8 +281,6 @@ void PlateOperator::assemble(bool matrices)
                 edge_term(edge_dirichlet_terms_, r, sl, r, sl, inv_h, rho_d * h * h * w);
             }
         }
-    if (!matrices)
-        return;
     stiffness_.resize(n, n);
     stiffness_.setFromTriplets(tk.begin(), tk.end());
     stiffness_.prune(0.0);

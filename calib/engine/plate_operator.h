@@ -128,9 +128,10 @@ class PlateOperator {
     // M^-1 Gm = -laplacian inside). All symmetric; K and Gm positive
     // semi-definite.
     const Eigen::VectorXd &mass() const { return mass_; }
-    // Assembled on first use (thread-safe): an engine on clamped and supported
-    // edges never needs them (it steps the mirrored stencil, and the bound is
-    // the interior one), and on 1000 x 1000 they took 4 s and 2.5 GB.
+    // Assembled on first use (thread-safe), with the edge terms below: an
+    // engine on clamped and supported edges never needs them (it steps the
+    // mirrored stencil, and the bound is the interior one); on 1000 x 1000
+    // they took 19 s and 2.8 GB.
     const SparseMatrix &stiffness() const
     {
         assemble_matrices();
@@ -191,14 +192,27 @@ class PlateOperator {
         std::size_t a = 0, b = 0; // indices into edge_stencils()
         double weight = 0;
     };
-    const std::vector<Stencil> &edge_stencils() const { return edge_stencils_; }
-    const std::vector<FormTerm> &edge_stiffness_terms() const { return edge_stiffness_terms_; }
-    const std::vector<FormTerm> &edge_dirichlet_terms() const { return edge_dirichlet_terms_; }
+    const std::vector<Stencil> &edge_stencils() const
+    {
+        assemble_matrices();
+        return edge_stencils_;
+    }
+    const std::vector<FormTerm> &edge_stiffness_terms() const
+    {
+        assemble_matrices();
+        return edge_stiffness_terms_;
+    }
+    const std::vector<FormTerm> &edge_dirichlet_terms() const
+    {
+        assemble_matrices();
+        return edge_dirichlet_terms_;
+    }
 
   private:
-    // The unknowns, the mass and the edge band's factored terms (always); the
-    // sparse matrices only with `matrices` (assemble_matrices(), once).
-    void assemble(bool matrices);
+    // The unknowns and the mass (the constructor, `form` false); the form, its
+    // sparse matrices and the edge band's factored terms (`form` true: once,
+    // on first use, through assemble_matrices()).
+    void assemble(bool form);
     void assemble_matrices() const;
 
     PlateParams params_;
@@ -212,8 +226,8 @@ class PlateOperator {
     mutable SparseMatrix dirichlet_;
     mutable std::once_flag matrices_once_;
     bool mirror_edges_ = false;
-    std::vector<Stencil> edge_stencils_;
-    std::vector<FormTerm> edge_stiffness_terms_, edge_dirichlet_terms_;
+    mutable std::vector<Stencil> edge_stencils_; // with the matrices, on first use
+    mutable std::vector<FormTerm> edge_stiffness_terms_, edge_dirichlet_terms_;
     mutable double lambda_k_ = -1;
     mutable double lambda_g_ = -1;
 };
