@@ -25,7 +25,7 @@ void PlateEngine<T>::build_rigid_modes()
     const PlateOperator &op = *op_;
     const Edges &e = op.params().edges;
     rigid_count_ = 0;
-    if (e.left != EdgeKind::free && e.right != EdgeKind::free && e.bottom != EdgeKind::free && e.top != EdgeKind::free)
+    if (e.none_free())
         return;
     const Eigen::Index n = Eigen::Index(op.unknown_count());
     Eigen::MatrixXd r(n, 3);

@@ -122,10 +122,7 @@ PlateOperator::PlateOperator(const PlateParams &params, const Grid &grid) : para
     bending_stiffness_ = params.material.bending_stiffness(params.thickness_m);
     kappa_ = params.material.kappa(params.thickness_m);
     assemble(false);
-    const Edges &e = params_.edges;
-    mirror_edges_ = mass_.maxCoeff() == mass_.minCoeff();
-    for (EdgeKind k : {e.left, e.right, e.bottom, e.top})
-        mirror_edges_ = mirror_edges_ && (k == EdgeKind::clamped || k == EdgeKind::simply_supported);
+    mirror_edges_ = params_.edges.none_free() && mass_.maxCoeff() == mass_.minCoeff();
 }
 
 void PlateOperator::assemble_matrices() const
@@ -293,25 +290,18 @@ void PlateOperator::assemble(bool form)
 // interior stencil over the infinite grid (64 kappa^2 / h^4, and 8 / h^2 for
 // the Laplacian), which the assembled operator approaches on large grids but
 // was never seen to exceed (every edge combination, nu in [-0.5, 0.49]; see
-// docs/engine.md). Where Gershgorin's bound proves it (clamped and supported
-// edges: every row's disc lies inside the interior one) that is all; else
-// Lanczos, whose Ritz value approaches lambda_max from below, raises it if
-// it finds more. Lanczos was 42 % of a 4 700-step `calibgen simulate` on
-// 330 x 330 (docs/engine.md, "Where a step's time goes").
+// docs/engine.md). On mirrored edges that is proven (below) and all; with a
+// free edge, Lanczos, whose Ritz value approaches lambda_max from below,
+// raises it if it finds more. Lanczos was 42 % of a 4 700-step `calibgen
+// simulate` on 330 x 330 (docs/engine.md, "Where a step's time goes").
 constexpr int dense_eigen_limit = 1200;
 
 namespace {
 
 double bounded_lambda_max(const SparseRowMatrix &a, const Eigen::VectorXd &mass, double supremum)
 {
-    if (a.rows() <= dense_eigen_limit)
-        return largest_generalized_eigenvalue(a, mass, dense_eigen_limit);
-    // The interior rows' discs reach the supremum exactly (20 + 4 x 8 + 4 x 2 +
-    // 4 x 1 = 64); 1e-12 covers the round-off of their sums (the time step
-    // keeps a margin of 1 - courant, 5 % by default, to the bound).
-    if (gershgorin_bound(a, mass) <= supremum * (1 + 1e-12))
-        return supremum;
-    return std::max(largest_generalized_eigenvalue(a, mass, dense_eigen_limit), supremum);
+    const double lanczos_or_dense = largest_generalized_eigenvalue(a, mass, dense_eigen_limit);
+    return a.rows() <= dense_eigen_limit ? lanczos_or_dense : std::max(lanczos_or_dense, supremum);
 }
 
 } // namespace

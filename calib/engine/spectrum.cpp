@@ -69,19 +69,6 @@ double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::Vec
     return last;
 }
 
-double gershgorin_bound(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag)
-{
-    const Eigen::VectorXd s = m_diag.cwiseSqrt().cwiseInverse();
-    double bound = 0.0;
-    for (Eigen::Index i = 0; i < a.outerSize(); ++i) {
-        double row = 0.0;
-        for (SparseRowMatrix::InnerIterator it(a, i); it; ++it)
-            row += std::abs(it.value()) * s[it.col()];
-        bound = std::max(bound, row * s[i]);
-    }
-    return bound;
-}
-
 std::vector<double> lowest_generalized_eigenvalues(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag, int count,
                                                    double shift)
 {

@@ -38,11 +38,6 @@ class SerialEigen {
 inline constexpr int lanczos_max_iterations = 300;
 double largest_generalized_eigenvalue(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag, int dense_limit = 1200);
 
-// An upper bound on the largest eigenvalue of M^-1 A: Gershgorin's disc
-// bound of the symmetric M^-1/2 A M^-1/2 (same eigenvalues), the largest
-// row sum of |a_ij| / sqrt(m_i m_j). One pass over the matrix.
-double gershgorin_bound(const SparseRowMatrix &a, const Eigen::VectorXd &m_diag);
-
 // The `count` lowest eigenvalues of A v = lambda M v, by shift-invert subspace
 // iteration (sparse LDL^T of A + shift M; `shift` > 0 also handles the rigid
 // modes of a free plate). Ascending; converged to ~1e-11 relative.

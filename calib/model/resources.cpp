@@ -154,9 +154,8 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
     // the finished matrices), whatever runs on it after; a simulation on
     // clamped and supported edges assembles no matrix (its engine steps the
     // mirrored stencil), only the unknowns' maps and masses.
-    const engine::Edges &edges = pl.edges;
-    const bool any_free = edges.left == engine::EdgeKind::free || edges.right == engine::EdgeKind::free ||
-                          edges.bottom == engine::EdgeKind::free || edges.top == engine::EdgeKind::free;
+    // (Three 8-byte values per node: unknown index, node index, mass; rounded up.)
+    const bool any_free = !pl.edges.none_free();
     const double operator_bytes = !calibration && !any_free && !s.effects.thick_plate
                                       ? 32.0 * nodes
                                       : engine::plate_operator_bytes(std::size_t(nodes));
@@ -235,8 +234,8 @@ void refuse_before_build(const scene::Scene &s, const Limits &limits, bool calib
     // product of the 13-point CSR matrix costs about 8 stencil updates per row
     // (measured: 16 s for the two runs on 1424 x 1187 cells, against 3.9 ms per
     // time step), so on a fine grid with a short run the set-up is most of the
-    // time. Clamped and supported edges need none (Gershgorin's bound proves
-    // the interior one: engine/plate_operator.cpp).
+    // time. Clamped and supported edges need none (the interior bound is
+    // proven there: engine/plate_operator.cpp).
     const double setup_node_steps = any_free ? nodes * 2.0 * engine::lanczos_max_iterations * 8.0 : 0.0;
     const double seconds = (node_steps + setup_node_steps) * small_plate_seconds_per_node_step() + output_seconds;
     refuse_if_over(s.file, memory_mb, seconds, limits, cause);
