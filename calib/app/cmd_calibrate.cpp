@@ -297,7 +297,10 @@ int run_calibrate(const CalibrateArgs &a)
                        ? "inverse filter, regularization " + fmt("%g", in.calibration.regularization)
                        : std::string("time reversal")) +
                   ", focal peak aimed at " + fmt("%.1f ms", 1e3 * pipeline::target_lead_time_s(in)) +
-                  " after playback starts");
+                  " after playback starts" +
+                  (in.calibration.active_damping_s > 0
+                       ? fmt(", the drive damping the plate %.1f ms after it", 1e3 * in.calibration.active_damping_s)
+                       : std::string()));
     pipeline::CalibrationResult r = pipeline::calibrate(in, progress.callback());
     pipeline::write_table(a.table, in, r);
     const pipeline::PlacementReport &p = r.placement;

@@ -31,8 +31,10 @@ void add_drive_metrics(toml::table &root, toml::array &foci, const ReportContext
     const pipeline::CalibrationInput &in = *c.input;
     root.insert("method", std::string(method_name(in)));
     root.insert("lead_time_target_s", pipeline::target_lead_time_s(in));
-    if (in.calibration.method == pipeline::DriveMethod::inverse_filter)
+    if (in.calibration.method == pipeline::DriveMethod::inverse_filter) {
         root.insert("regularization", in.calibration.regularization);
+        root.insert("active_damping_s", in.calibration.active_damping_s);
+    }
     const std::vector<pipeline::DriveFigures> d = drive_figures_of(c);
     for (std::size_t f = 0; f < d.size() && f < foci.size(); f++)
         if (toml::table *t = foci[f].as_table()) {
@@ -53,6 +55,9 @@ std::string drive_design_html(const ReportContext &c)
         h << ", regularization " << fmt("%g", in.calibration.regularization)
           << " (Tikhonov weight relative to the largest eigenvalue of H<sup>T</sup>H; control points: the active "
              "area beyond lambda/2 from the focus, at all times)";
+    if (inverse && in.calibration.active_damping_s > 0)
+        h << "; the drive continues " << fmt("%.1f", in.calibration.active_damping_s * 1e3)
+          << " ms after the focal instant, holding the area at zero (active damping)";
     h << ".</p>";
     const std::vector<pipeline::DriveFigures> d = drive_figures_of(c);
     if (d.empty())

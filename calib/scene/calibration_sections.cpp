@@ -271,6 +271,13 @@ pipeline::CalibrationSpec parse_calibration(const Fields &f)
     if (auto v = f.positive("lead_time_s"))
         c.lead_time_s = *v;
     c.regularization = non_negative(f, "regularization", c.regularization);
+    c.active_damping_s = non_negative(f, "active_damping_s", c.active_damping_s);
+    if (c.active_damping_s > 0 && c.method != pipeline::DriveMethod::inverse_filter)
+        f.fail("active_damping_s", "needs method = \"inverse_filter\" (time reversal's drive is the reversed "
+                                   "response: nothing of it follows the focal instant)");
+    if (c.active_damping_s > c.window_s)
+        f.fail("active_damping_s", "must not exceed window_s (" + format_number(c.window_s) + " s), got " +
+                                       format_number(c.active_damping_s));
     return c;
 }
 

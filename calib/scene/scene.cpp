@@ -169,10 +169,11 @@ void parse_active_area_section(const toml::table &t, Scene &scene)
 
 void parse_exciters_section(const toml::table &t, Scene &scene)
 {
-    scene.exciters = parse_exciters(
-        Fields(t, scene.file, "exciters",
-               {"count", "placement", "criterion", "seed", "min_spacing_m", "force_full_scale_n", "positions_m",
-                "site_spacing_m", "restarts", "iterations", "verdict_rounds", "contrast_window", "placement_foci", "force_gains"}));
+    scene.exciters =
+        parse_exciters(Fields(t, scene.file, "exciters",
+                              {"count", "placement", "criterion", "seed", "min_spacing_m", "force_full_scale_n",
+                               "positions_m", "site_spacing_m", "restarts", "iterations", "verdict_rounds",
+                               "contrast_window", "placement_foci", "force_gains"}));
 }
 
 void parse_foci_section(const toml::table &t, Scene &scene)
@@ -193,7 +194,8 @@ void parse_calibration_section(const toml::table &t, Scene &scene)
 {
     const Fields f(t, scene.file, "calibration",
                    {"window_s", "truncate_fraction", "output_rate_hz", "sample_format", "threshold_m", "dither",
-                    "accuracy", "verify_tail_s", "method", "lead_time_s", "regularization", "robust"});
+                    "accuracy", "verify_tail_s", "method", "lead_time_s", "regularization", "active_damping_s",
+                    "robust"});
     scene.calibration = parse_calibration(f);
     if (f.has("robust")) // with either method (pipeline/robustness/robust_design.h)
         scene.robust = parse_robust(f);

@@ -84,6 +84,11 @@ struct CalibrationSpec {
     // Inverse filter: Tikhonov weight relative to the largest eigenvalue of the
     // drive's Gram matrix H^T H (pipeline/design/inverse_filter.h); >= 0.
     double regularization = 1e-4;
+    // Inverse filter: the drive continues this long after the focal instant
+    // (s), designed with the rest to hold the whole active area at zero, so
+    // it takes the reverberation out of the plate (active damping); 0: the
+    // drive ends at the focal instant.
+    double active_damping_s = 0;
 };
 
 } // namespace calib::pipeline

@@ -421,10 +421,13 @@ namespace {
 // The joint design's index for its dither seed: one no focus has.
 constexpr uint64_t joint_drive = 999983;
 
-// The scene's drive length J at H's rate: its lead time.
+// The scene's drive length J at H's rate: its lead time, and its active
+// damping after the focal instant.
 std::size_t scene_drive_samples(const CalibrationInput &in, const TransferMatrix &H)
 {
-    return static_cast<std::size_t>(std::floor(target_lead_time_s(in) * H.rate_hz + 1e-9)) + 1;
+    return static_cast<std::size_t>(
+               std::floor((target_lead_time_s(in) + in.calibration.active_damping_s) * H.rate_hz + 1e-9)) +
+           1;
 }
 
 // The scene's options (the same for every focus).

@@ -6,7 +6,9 @@
 //             + beta sum_c s_c^T (I + rho P_out) s_c
 //
 // over causal drives s_c[j], j < J (J: the lead time at H's rate, so the
-// drive is no longer than the lead time), where w_p = (1/R) sum_c h_cp * s_c
+// drive is no longer than the lead time; plus the scene's active_damping_s,
+// a drive that goes on after the focal instant and, held to the same
+// objective, takes the reverberation out of the plate), where w_p = (1/R) sum_c h_cp * s_c
 // is the playback (transfer/playback.h), d the pulse centred at the focus instant, Q
 // the control points (the observation lattice in the active area and the
 // other foci, farther than lambda/2 from the focus), and n runs over the
