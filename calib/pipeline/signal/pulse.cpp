@@ -4,6 +4,7 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 
 namespace calib::pipeline {
@@ -60,10 +61,11 @@ std::vector<double> sample_pulse(const PulseSpec &p, double rate_hz)
     return v;
 }
 
-double pulse_max_frequency_hz(const PulseSpec &p, double level)
+namespace {
+
+// The highest frequency where the pulse's amplitude spectrum reaches `level` of its peak.
+double spectrum_edge_hz(const PulseSpec &p, double level)
 {
-    // Direct DFT of the finely sampled pulse on a frequency grid up to 8x the
-    // centre: a few thousand evaluations, negligible next to any simulation.
     const double rate = 64.0 * p.centre_hz;
     const std::vector<double> x = sample_pulse(p, rate);
     const int bins = 2000;
@@ -82,6 +84,28 @@ double pulse_max_frequency_hz(const PulseSpec &p, double level)
         if (mag[b] >= level * peak)
             return fmax_scan * b / bins;
     return 0.0;
+}
+
+} // namespace
+
+double pulse_max_frequency_hz(const PulseSpec &p, double level)
+{
+    // Direct DFT of the finely sampled pulse on a frequency grid up to 8x the
+    // centre: a quarter of a million complex exponentials, a few ms. Stages
+    // ask it per focus (the inverse filter's band edge, every drive's energy
+    // above the band), so each thread keeps its last answer (the amplitude
+    // does not enter: the spectrum is taken relative to its peak).
+    struct Last {
+        PulseShape shape;
+        double centre_hz, cycles, level, f_hz;
+    };
+    static thread_local std::optional<Last> last;
+    if (last && last->shape == p.shape && last->centre_hz == p.centre_hz && last->cycles == p.cycles &&
+        last->level == level)
+        return last->f_hz;
+    const double f_hz = spectrum_edge_hz(p, level);
+    last = Last{p.shape, p.centre_hz, p.cycles, level, f_hz};
+    return f_hz;
 }
 
 double search_rate(const PulseSpec &p) { return std::max(2000.0, std::ceil(4.0 * pulse_max_frequency_hz(p))); }
