@@ -153,6 +153,11 @@ int dry_run(const std::string &path, const LimitArgs &l)
     o << "  predicted time    " << fmt("%.1f s", pr.seconds) << " (" << plan.emitters.size() << " simulations x "
       << plan.sites.size() << " sites, " << cost.threads << " threads, "
       << fmt("%.3g ms", cost.seconds_per_step_simulate * 1e3) << " per step measured now)\n";
+    if (pr.design_s > 0)
+        o << "  of which designs  " << fmt("%.1f s", pr.design_s) << " (inverse filter: " << in.foci.points.size()
+          << " foci, " << fmt("%.3g s", cost.design.per_focus_s) << " each on one core measured now"
+          << (model::searched_by_verdict(in) ? ", at most every placement the verdict judges" : "") << "), "
+          << fmt("%.0f MB", pr.design_mb) << "\n";
     o << "  predicted memory  " << fmt("%.0f MB", pr.memory_mb) << " peak resident (limit "
       << fmt("%.0f MB", limits.memory_mb) << ", " << limits.memory_source << ")\n";
     std::printf("%s", o.str().c_str());

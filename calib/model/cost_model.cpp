@@ -6,6 +6,7 @@
 #include "pipeline/placement/site_recording.h"
 #include "pipeline/design/time_reversal.h"
 #include "pipeline/signal/resample.h"
+#include "pipeline/transfer/transfer.h"
 
 #include <omp.h>
 
@@ -83,7 +84,29 @@ CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::Cal
     for (int r = 0; r < reps; r++)
         (void)pipeline::resample(trace, recording_rate, plan.search_rate_hz);
     c.seconds_per_resample = seconds_since(t0) / reps;
+    if (const auto shape = inverse_filter_shape(in, plan)) {
+        const pipeline::InverseFilterOptions o = pipeline::scene_inverse_filter_options(in);
+        c.design = pipeline::time_inverse_filter(*shape, o);
+        if (shape->plates > 1) {
+            pipeline::InverseFilterShape plain = *shape;
+            plain.plates = 1;
+            c.plain_design = pipeline::time_inverse_filter(plain, o);
+        }
+    }
     return c;
+}
+
+std::optional<pipeline::InverseFilterShape> inverse_filter_shape(const pipeline::CalibrationInput &in,
+                                                                 const pipeline::CalibrationPlan &plan)
+{
+    if (in.calibration.method != pipeline::DriveMethod::inverse_filter || !plan.transfer)
+        return std::nullopt;
+    const pipeline::TransferOptions t = pipeline::transfer_options(in, plan.time_step_s);
+    const pipeline::ObservationLattice lat = pipeline::observation_lattice(in, t.lattice_stride);
+    std::size_t in_area = 0;
+    for (std::size_t n = 0; n < lat.size(); n++)
+        in_area += in.active.area.contains(lat.at(n)) ? 1 : 0;
+    return pipeline::inverse_filter_shape(in, 1.0 / (double(t.decimation) * plan.time_step_s), t.samples, in_area);
 }
 
 double simulation_bytes(std::size_t nodes, engine::Precision p, std::size_t receivers, std::size_t steps)
@@ -99,17 +122,12 @@ double reciprocity_recording_bytes(const pipeline::CalibrationPlan &plan)
            2.0 * double(pipeline::site_recording_chunk_frames) * double(plan.nodes) * 4;
 }
 
-namespace {
-
-// pipeline::judged_by_verdict, decided from the scene before anything runs.
 bool searched_by_verdict(const pipeline::CalibrationInput &in)
 {
     return in.exciters.placement == pipeline::PlacementMode::random &&
            in.exciters.criterion == pipeline::PlacementCriterion::contrast && in.exciters.verdict_rounds > 0 &&
            pipeline::transfer_holds(in);
 }
-
-} // namespace
 
 Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan, const CostModel *cost)
 {
@@ -158,9 +176,22 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
         p.recordings_mb += (probes * row_bytes + 2 * probes * sites * len * 4) / mb +
                            (cached_sites / double(in.exciters.count) + 3) * plan.transfer_bytes / mb;
     }
-    p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb;
+    // The inverse filter's designs: the shared correlations and playback
+    // spectra, and one design per core at once (after the simulations).
+    const std::optional<pipeline::InverseFilterShape> shape = inverse_filter_shape(in, plan);
+    // A robust design's member plates each bring their H and its playback
+    // spectra, as the nominal one (above).
+    if (shape)
+        p.design_mb = (pipeline::inverse_filter_bytes(*shape, std::size_t(std::min(P, K))) +
+                       double(shape->plates - 1) * 3 * plan.transfer_bytes) /
+                      mb;
+    p.memory_mb = current_rss_mb() + p.fields_mb + p.traces_mb + p.recordings_mb + p.design_mb;
     if (!cost)
         return p;
+    if (shape) { // every focus, the foci in parallel; a robust scene also designs the plain drives
+        auto stage = [&](const pipeline::InverseFilterSeconds &t) { return (t.shared_s + K * t.per_focus_s) / P; };
+        p.design_s = (stage(cost->design) + stage(cost->plain_design)) * std::max(1.0, judged);
+    }
     p.simulate_s = (cost->seconds_per_step_simulate * double(plan.site_steps) + sites * cost->seconds_per_resample) *
                    std::ceil((emitters + probes) / P);
     if (judged > 0) // at most every exciter of every placement judged is new to the transfer cache
@@ -177,7 +208,7 @@ Prediction predict(const pipeline::CalibrationInput &in, const pipeline::Calibra
     // small beside it: 0.13 s of 1.1 s on Fig. 7, docs/BENCHMARKS.md).
     if (plan.transfer)
         p.verify_s += cost->seconds_per_step_verify * double(plan.transfer_steps) * std::ceil(in.exciters.count / P);
-    p.seconds = p.simulate_s + p.verify_s;
+    p.seconds = p.simulate_s + p.verify_s + p.design_s;
     return p;
 }
 

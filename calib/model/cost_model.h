@@ -6,10 +6,12 @@
 #include "engine/plate_operator.h"
 #include "engine/simulation.h"
 #include "pipeline/calibrate.h"
+#include "pipeline/design/inverse_filter.h"
 #include "pipeline/plan.h"
 
 #include <cstddef>
 #include <memory>
+#include <optional>
 
 namespace calib::model {
 
@@ -26,7 +28,17 @@ struct CostModel {
     double seconds_per_node_step = 0; // the simulate figure per node, for reports
     double seconds_per_resample = 0;  // soxr of one site's recording (the window, decimated) to the search rate
     int threads = 1;                  // simulations that run at once (one core each)
+    // The inverse filter's designs (method = "inverse_filter" with the
+    // transfer matrix; zero otherwise), timed on one core on the scene's shape
+    // (pipeline/design/inverse_filter.h); `plain_design` for a robust scene's
+    // plain design, which it also makes and verifies.
+    pipeline::InverseFilterSeconds design, plain_design;
 };
+// The shape of the scene's inverse-filter designs (nominal plate and robust
+// members), from the plan's transfer matrix; nullopt when the scene designs
+// by time reversal or has no transfer matrix.
+std::optional<pipeline::InverseFilterShape> inverse_filter_shape(const pipeline::CalibrationInput &in,
+                                                                 const pipeline::CalibrationPlan &plan);
 CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan,
                        double node_steps = 1.5e7);
 
@@ -50,7 +62,13 @@ struct Prediction {
     double traces_mb = 0;      // the running simulations' traces
     double recordings_mb = 0;  // the stored recordings (pulse and impulse responses)
     double verdict_probes = 0; // ghost probes the search by the verdict may add (pipeline/placement_verdict.h)
+    double design_s = 0;       // the inverse filter's designs (in `seconds`; every placement the verdict judges)
+    double design_mb = 0;      // their memory (in `memory_mb`)
 };
+// Whether the placement search is judged by the verdict
+// (pipeline::judged_by_verdict), decided from the scene before anything runs.
+bool searched_by_verdict(const pipeline::CalibrationInput &in);
+
 // Memory needs no timing: `cost` may be null, then seconds stay 0.
 Prediction predict(const pipeline::CalibrationInput &in, const pipeline::CalibrationPlan &plan, const CostModel *cost);
 // `calibgen verify`: the plan's last verification pass alone (no recordings).
