@@ -14,10 +14,10 @@
 #include <unsupported/Eigen/FFT>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <complex>
 #include <limits>
-#include <chrono>
 #include <memory>
 #include <numbers>
 #include <stdexcept>
