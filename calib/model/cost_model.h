@@ -6,7 +6,7 @@
 #include "engine/plate_operator.h"
 #include "engine/simulation.h"
 #include "pipeline/calibrate.h"
-#include "pipeline/design/inverse_filter.h"
+#include "pipeline/design/inverse_filter_cost.h"
 #include "pipeline/plan.h"
 
 #include <cstddef>

@@ -159,34 +159,10 @@ std::vector<DriveSignals> inverse_filter_signals(const CalibrationInput &in, con
 std::vector<InverseFilterDesign> inverse_filter_designs(const CalibrationInput &in, const Plates &plates,
                                                         const ProgressFn &progress = {}, bool shared = true);
 
-// What a scene's designs cost, priced before any simulation (the dry run and
-// the refusals, model/cost_model.h).
-struct InverseFilterShape {
-    std::size_t channels = 0;      // C
-    std::size_t samples = 0;       // S, of H's responses
-    std::size_t drive_samples = 0; // J
-    std::size_t points = 0;        // served by the shared designs: the lattice in the active area, the foci
-    std::size_t plates = 1;        // the nominal plate and a robust design's members
-    double rate_hz = 0;            // H's
-};
-// The scene's shape for H of `samples` at `rate_hz` with `lattice_in_area`
-// lattice points in the active area (plates: the nominal one and the robust
-// members, if any).
-InverseFilterShape inverse_filter_shape(const CalibrationInput &in, double rate_hz, std::size_t samples,
-                                        std::size_t lattice_in_area);
-// Bytes the shared designs hold (each point's correlations, each plate's
-// playback spectra), plus those of `running` designs at once (block
-// Levinson's factor, the minimax passes' fields).
-double inverse_filter_bytes(const InverseFilterShape &s, std::size_t running);
-struct InverseFilterSeconds {
-    double shared_s = 0;    // the correlations of every point, once (on one core)
-    double per_focus_s = 0; // one focus's minimax design (on one core)
-};
-// Timed now, on one core: the shared designs' code on random responses of
-// the shape's C, S and J at two point counts, extrapolated linearly in the
-// points (block Levinson does not grow with them; the weighted sums and the
-// playback do). Well under a second.
-InverseFilterSeconds time_inverse_filter(const InverseFilterShape &s, const InverseFilterOptions &o);
+// The scene's drive length J at `rate_hz` (H's): its lead time, and its
+// active damping after the focal instant.
+std::size_t scene_drive_samples(const CalibrationInput &in, double rate_hz);
+
 // The scene's options (regularization, band edge, minimax passes).
 InverseFilterOptions scene_inverse_filter_options(const CalibrationInput &in);
 
