@@ -50,14 +50,6 @@ inline void catmull_rom(double t, double w[4])
     w[3] = 0.5 * (t3 - t2);
 }
 
-std::size_t next_pow2(std::size_t n)
-{
-    std::size_t p = 1;
-    while (p < n)
-        p <<= 1;
-    return p;
-}
-
 } // namespace
 
 BenchModel::BenchModel(const CalibrationInput &in, BenchSetup setup) : in_(in), setup_(std::move(setup))

@@ -25,14 +25,6 @@ namespace calib::pipeline {
 
 namespace inverse_solve {
 
-std::size_t next_pow2(std::size_t n)
-{
-    std::size_t m = 1;
-    while (m < n)
-        m *= 2;
-    return m;
-}
-
 // Right-hand side: W_f A_f^T d summed over the plates and the foci,
 // b[(c,j)] = W_f sum_m sum_f sum_n h^m_cf[n] d[n + j].
 Eigen::VectorXd focus_rhs(const Plates &plates, const InverseFilterProblem &p, const InverseFilterOptions &o)

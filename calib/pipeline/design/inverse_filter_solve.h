@@ -19,9 +19,6 @@ namespace calib::pipeline::inverse_solve {
 
 using Complex = std::complex<double>;
 
-// The smallest power of two >= n.
-std::size_t next_pow2(std::size_t n);
-
 // Right-hand side: W_f A_f^T d summed over the plates and the foci,
 // b[(c,j)] = W_f sum_m sum_f sum_n h^m_cf[n] d[n + j].
 Eigen::VectorXd focus_rhs(const Plates &plates, const InverseFilterProblem &p, const InverseFilterOptions &o);

@@ -66,4 +66,12 @@ std::unique_ptr<RealFft> thread_fft(std::size_t n, std::string &failure)
     }
 }
 
+std::size_t next_pow2(std::size_t n)
+{
+    std::size_t p = 1;
+    while (p < n)
+        p <<= 1;
+    return p;
+}
+
 } // namespace calib::pipeline

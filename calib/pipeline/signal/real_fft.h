@@ -51,4 +51,8 @@ class RealFft {
 // one must still enter the region's work-sharing loops (and skip its share).
 std::unique_ptr<RealFft> thread_fft(std::size_t n, std::string &failure);
 
+// The smallest power of two >= n (1 for 0): a transform's size where a
+// linear convolution of n samples must not wrap.
+std::size_t next_pow2(std::size_t n);
+
 } // namespace calib::pipeline
