@@ -14,6 +14,7 @@
 #include "scene_text.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <sndfile.h>
 
 #include <cmath>
@@ -167,7 +168,10 @@ class Measurements : public ::testing::Test {
   protected:
     void SetUp() override
     {
-        dir = fs::path(::testing::TempDir()) / "measurements_test";
+        // One directory per process: ctest runs this fixture's tests as
+        // separate processes side by side, and a shared one was emptied by
+        // one test's SetUp under another.
+        dir = fs::path(::testing::TempDir()) / ("measurements_test-" + std::to_string(::getpid()));
         fs::remove_all(dir);
         fs::create_directories(dir);
         scene::PlanOptions o;
@@ -185,6 +189,8 @@ class Measurements : public ::testing::Test {
         write_float_wav(dir / "clipped.wav", 3, frames, 16000,
                         [&](std::size_t n, int c) { return c == 0 && n >= 1000 && n < 1010 ? 1.0 : sines(n, c); });
     }
+
+    void TearDown() override { fs::remove_all(dir); }
 
     // The one-line error of loading `t` as m.toml ("" if none).
     std::string error_of(const std::string &t, const scene::Scene &s)
