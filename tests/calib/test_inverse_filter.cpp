@@ -340,8 +340,7 @@ TEST(InverseFilter, ActiveDampingTakesTheReverberationOutAndKeepsTheFocus)
 
 // The dry run's price of the designs (model::predict with the cost model's
 // timing on random responses of the scene's shape) against the designs of
-// the real plate, timed here: the same order (measured within 1.5x on an
-// idle and a loaded machine).
+// the real plate, timed here: the same order (measured 0.7-1.7x).
 TEST(InverseFilter, TheDryRunPricesTheDesigns)
 {
     pipeline::CalibrationInput in =
@@ -368,7 +367,7 @@ TEST(InverseFilter, TheDryRunPricesTheDesigns)
     }
     const double ratio = pr.design_s / measured;
     std::printf("designs: predicted %.3f s, measured %.3f s (x %.2f)\n", pr.design_s, measured, ratio);
-    // Measured 1.1-1.7 (3.5 once at load 4: both timings are of a shared machine).
+    // Measured 0.7-1.7 (3.5 once at load 4: both timings are of a shared machine).
     EXPECT_GT(ratio, 0.2);
     EXPECT_LT(ratio, 6.0);
     // With the same timing, the price grows with the foci: 9 against 4
