@@ -102,11 +102,8 @@ std::optional<pipeline::InverseFilterShape> inverse_filter_shape(const pipeline:
     if (in.calibration.method != pipeline::DriveMethod::inverse_filter || !plan.transfer)
         return std::nullopt;
     const pipeline::TransferOptions t = pipeline::transfer_options(in, plan.time_step_s);
-    const pipeline::ObservationLattice lat = pipeline::observation_lattice(in, t.lattice_stride);
-    std::size_t in_area = 0;
-    for (std::size_t n = 0; n < lat.size(); n++)
-        in_area += in.active.area.contains(lat.at(n)) ? 1 : 0;
-    return pipeline::inverse_filter_shape(in, 1.0 / (double(t.decimation) * plan.time_step_s), t.samples, in_area);
+    return pipeline::inverse_filter_shape(in, 1.0 / (double(t.decimation) * plan.time_step_s), t.samples,
+                                          pipeline::observation_lattice(in, t.lattice_stride));
 }
 
 double simulation_bytes(std::size_t nodes, engine::Precision p, std::size_t receivers, std::size_t steps)

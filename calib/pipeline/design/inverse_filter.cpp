@@ -300,7 +300,6 @@ std::vector<std::size_t> control_points(const CalibrationInput &in, const Transf
                                         const std::vector<std::size_t> &set)
 {
     const double lambda_half = judged_lambda_half_m(in);
-    const Rect &a = in.active.area;
     auto far = [&](Point p) {
         for (std::size_t f : set) {
             const Point at = in.foci.points[f].at;
@@ -310,11 +309,9 @@ std::vector<std::size_t> control_points(const CalibrationInput &in, const Transf
         return true;
     };
     std::vector<std::size_t> q;
-    for (std::size_t n = 0; n < H.lattice.size(); n++) {
-        const Point p = H.lattice.at(n);
-        if (a.contains(p) && far(p))
+    for (std::size_t n : lattice_in_area(in, H.lattice))
+        if (far(H.lattice.at(n)))
             q.push_back(n);
-    }
     for (std::size_t g = 0; g < in.foci.points.size(); g++)
         if (std::find(set.begin(), set.end(), g) == set.end() && H.exact_begin() + g < H.point_count() &&
             far(in.foci.points[g].at))

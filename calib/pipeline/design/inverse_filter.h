@@ -162,6 +162,9 @@ std::vector<InverseFilterDesign> inverse_filter_designs(const CalibrationInput &
 // The scene's drive length J at `rate_hz` (H's): its lead time, and its
 // active damping after the focal instant.
 std::size_t scene_drive_samples(const CalibrationInput &in, double rate_hz);
+// The lattice points in the active area (indices into `lattice`): with the
+// foci, the points a scene's designs weigh (control_points draws from them).
+std::vector<std::size_t> lattice_in_area(const CalibrationInput &in, const ObservationLattice &lattice);
 
 // The scene's options (regularization, band edge, minimax passes).
 InverseFilterOptions scene_inverse_filter_options(const CalibrationInput &in);

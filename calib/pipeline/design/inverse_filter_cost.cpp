@@ -17,14 +17,14 @@
 namespace calib::pipeline {
 
 InverseFilterShape inverse_filter_shape(const CalibrationInput &in, double rate_hz, std::size_t samples,
-                                        std::size_t lattice_in_area)
+                                        const ObservationLattice &lattice)
 {
     InverseFilterShape s;
     s.channels = in.exciters.count;
     s.samples = samples;
     s.rate_hz = rate_hz;
     s.drive_samples = scene_drive_samples(in, rate_hz);
-    s.points = lattice_in_area + in.foci.points.size();
+    s.points = lattice_in_area(in, lattice).size() + in.foci.points.size();
     if (in.robust)
         s.plates += in.robust->loss.size() + in.robust->youngs_scale.size();
     return s;

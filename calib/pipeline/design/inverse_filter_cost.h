@@ -15,11 +15,10 @@ struct InverseFilterShape {
     std::size_t plates = 1;        // the nominal plate and a robust design's members
     double rate_hz = 0;            // H's
 };
-// The scene's shape for H of `samples` at `rate_hz` with `lattice_in_area`
-// lattice points in the active area (plates: the nominal one and the robust
-// members, if any).
+// The scene's shape for H of `samples` at `rate_hz` on `lattice` (plates:
+// the nominal one and the robust members, if any).
 InverseFilterShape inverse_filter_shape(const CalibrationInput &in, double rate_hz, std::size_t samples,
-                                        std::size_t lattice_in_area);
+                                        const ObservationLattice &lattice);
 // Bytes the shared designs hold (each point's correlations, each plate's
 // playback spectra), plus those of `running` designs at once (block
 // Levinson's factor, the minimax passes' fields).

@@ -26,22 +26,26 @@ std::size_t scene_drive_samples(const CalibrationInput &in, double rate_hz)
            1;
 }
 
+std::vector<std::size_t> lattice_in_area(const CalibrationInput &in, const ObservationLattice &lattice)
+{
+    std::vector<std::size_t> q;
+    for (std::size_t n = 0; n < lattice.size(); n++)
+        if (in.active.area.contains(lattice.at(n)))
+            q.push_back(n);
+    return q;
+}
+
 namespace {
 
 // The joint design's index for its dither seed: one no focus has.
 constexpr uint64_t joint_drive = 999983;
-
-std::size_t scene_drive_samples(const CalibrationInput &in, const TransferMatrix &H)
-{
-    return scene_drive_samples(in, H.rate_hz);
-}
 
 // The scene's problem of the foci `set` (indices into the scene's foci) on H.
 InverseFilterProblem scene_problem(const CalibrationInput &in, const TransferMatrix &H,
                                    const std::vector<std::size_t> &set)
 {
     InverseFilterProblem p;
-    p.drive_samples = scene_drive_samples(in, H);
+    p.drive_samples = scene_drive_samples(in, H.rate_hz);
     p.target = focus_target(in, H.rate_hz, focus_centre_s(in));
     for (std::size_t f : set)
         p.foci.push_back(H.exact_begin() + f);
@@ -53,12 +57,7 @@ InverseFilterProblem scene_problem(const CalibrationInput &in, const TransferMat
 // area and the foci (control_points draws from these).
 std::vector<std::size_t> scene_points(const CalibrationInput &in, const TransferMatrix &H)
 {
-    const Rect &a = in.active.area;
-    std::vector<std::size_t> q;
-    for (std::size_t n = 0; n < H.lattice.size(); n++) {
-        if (a.contains(H.lattice.at(n)))
-            q.push_back(n);
-    }
+    std::vector<std::size_t> q = lattice_in_area(in, H.lattice);
     for (std::size_t g = 0; g < in.foci.points.size(); g++)
         if (H.exact_begin() + g < H.point_count())
             q.push_back(H.exact_begin() + g);
@@ -82,7 +81,7 @@ std::vector<InverseFilterDesign> scene_designs(const CalibrationInput &in, const
         return out;
     std::unique_ptr<SharedDesigns> common;
     if (shared)
-        common = std::make_unique<SharedDesigns>(plates, scene_points(in, H), scene_drive_samples(in, H));
+        common = std::make_unique<SharedDesigns>(plates, scene_points(in, H), scene_drive_samples(in, H.rate_hz));
     const InverseFilterOptions o = scene_inverse_filter_options(in);
     std::size_t done = 0;
     std::string failure;
