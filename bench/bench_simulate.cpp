@@ -13,6 +13,7 @@
 // thread count, and the share of ours spent before the first step.
 //
 //   build/bench/bench/bench_simulate [--benchmark_filter=...]
+#include "engine/lanes.h"
 #include "engine/plate_kernels.h"
 #include "engine/simulation.h"
 #include "physics/material.h"
@@ -178,7 +179,54 @@ void BM_SimulateEndToEnd(benchmark::State &state)
     state.SetLabel(bulk_update_isa());
 }
 
+// Several sources of the Fig. 7 plate in lanes (engine/lanes.h), one thread:
+// a batch of `width` lanes against as many single runs of ours, each source
+// recording one receiver every step. Reports per_lane (the batch's time per
+// source over a single run's), which lanes.cpp's per_lane_cost holds.
+void BM_SimulateLanes(benchmark::State &state)
+{
+    const int n = int(state.range(0)), width = int(state.range(2));
+    const std::size_t steps = std::size_t(state.range(1));
+    SimulationOptions o;
+    o.engine.threads = 1;
+    LanesRequest rq;
+    for (int l = 0; l < width; ++l)
+        rq.sources.push_back({0.2 + 0.03 * l, 0.25});
+    rq.force_n = {1.0 / kirchhoff_time_step(PlateOperator(fig7_plate(), Grid{n, n, side_m / n}), o)};
+    rq.receivers.push_back({0.45, 0.4});
+    rq.samples = steps;
+    rq.width = width;
+    const Job job{n, steps, 1};
+    double best_lanes = 1e300, best_single = 1e300, setup = 0, sum = 0;
+    for (auto _ : state) {
+        const auto t0 = std::chrono::steady_clock::now(); // from the operator's construction, as run_ours
+        auto op = std::make_shared<PlateOperator>(fig7_plate(), Grid{n, n, side_m / n});
+        const std::vector<LaneRecord> rec = simulate_lanes(op, o, rq);
+        const double lanes = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        benchmark::DoNotOptimize(rec.back().traces[0].back());
+        best_lanes = std::min(best_lanes, lanes);
+        best_single = std::min(best_single, run_ours(job, setup, sum));
+        benchmark::DoNotOptimize(sum);
+    }
+    const double cells = double(n - 1) * double(n - 1) * double(steps) * width;
+    state.counters["per_lane"] = best_lanes / width / best_single;
+    state.counters["lanes_Gcell/s"] = cells / best_lanes * 1e-9;
+    state.SetLabel(bulk_update_isa());
+}
+
 } // namespace
+
+// n, steps, width.
+BENCHMARK(BM_SimulateLanes)
+    ->Args({81, 14300, 1})
+    ->Args({81, 14300, 2})
+    ->Args({81, 14300, 4})
+    ->Args({81, 14300, 8})
+    ->Args({330, 2000, 1})
+    ->Args({330, 2000, 4})
+    ->Iterations(3)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // n, steps, threads. 81: Fig. 7's grid and a calibration's simulation length;
 // 330: the plate at f_max 12 kHz; 1024: a large grid, fewer steps.

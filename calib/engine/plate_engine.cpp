@@ -40,6 +40,21 @@ ScopedFlushDenormals::~ScopedFlushDenormals()
 #endif
 }
 
+ThreadFlushDenormals::ThreadFlushDenormals()
+{
+#ifdef HAPTIC_HAVE_MXCSR
+    saved_ = _mm_getcsr();
+    _mm_setcsr(saved_ | 0x8040u);
+#endif
+}
+
+ThreadFlushDenormals::~ThreadFlushDenormals()
+{
+#ifdef HAPTIC_HAVE_MXCSR
+    _mm_setcsr(saved_);
+#endif
+}
+
 template <typename T>
 PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time_step_s, const EngineOptions &options)
     : op_(std::move(op)), options_(options), k_(time_step_s)

@@ -14,7 +14,7 @@ namespace {
 // j+1, then d^{n+1} and u^{n+1} in place. u row j is read (for the Laplacian
 // of row j+1) before it is written, in the same iteration; no later iteration
 // reads it. No branches inside the i loop.
-template <typename T, bool Lossy, bool Fresh>
+template <typename T, bool Lossy, bool Fresh, int E>
 inline __attribute__((always_inline)) void
 output_row(T *__restrict u0, const T *__restrict u1, const T *__restrict u2, const T *__restrict lm,
            const T *__restrict l0, T *__restrict lp, const T *__restrict dm, const T *__restrict d0,
@@ -23,40 +23,43 @@ output_row(T *__restrict u0, const T *__restrict u1, const T *__restrict u2, con
     const T g = c.g, mu2 = c.mu2, nu1 = c.nu1;
     if constexpr (Fresh) {
         // The two columns beyond the row (band columns: never written by the sweep).
-        for (int i : {i0 - 1, i1}) {
-            const T cc = u1[i];
-            lp[i] = ((u1[i - 1] - cc) + (u1[i + 1] - cc)) + ((u0[i] - cc) + (u2[i] - cc));
-        }
+        for (int i : {i0 - 1, i1})
+            for (int q = i * E; q < (i + 1) * E; ++q) {
+                const T cc = u1[q];
+                lp[q] = ((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc));
+            }
     }
+    // q runs over the row's nodes and, within a node, its E lanes: the
+    // horizontal neighbours are E elements away.
 #pragma omp simd
-    for (int i = i0; i < i1; ++i) {
+    for (int q = i0 * E; q < i1 * E; ++q) {
         T lnext;
         if constexpr (Fresh) {
-            const T cc = u1[i];
-            lnext = ((u1[i - 1] - cc) + (u1[i + 1] - cc)) + ((u0[i] - cc) + (u2[i] - cc));
-            lp[i] = lnext;
+            const T cc = u1[q];
+            lnext = ((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc));
+            lp[q] = lnext;
         } else {
-            lnext = lp[i];
+            lnext = lp[q];
         }
-        const T lap2 = ((lm[i] + lnext) + (l0[i - 1] + l0[i + 1])) - T(4) * l0[i];
-        T v = g * d0[i] - mu2 * lap2;
+        const T lap2 = ((lm[q] + lnext) + (l0[q - E] + l0[q + E])) - T(4) * l0[q];
+        T v = g * d0[q] - mu2 * lap2;
         if constexpr (Lossy) {
-            const T dc = d0[i];
-            v += nu1 * (((d0[i - 1] - dc) + (d0[i + 1] - dc)) + ((dm[i] - dc) + (dp[i] - dc)));
+            const T dc = d0[q];
+            v += nu1 * (((d0[q - E] - dc) + (d0[q + E] - dc)) + ((dm[q] - dc) + (dp[q] - dc)));
         }
-        dn[i] = v;
-        u0[i] += v;
+        dn[q] = v;
+        u0[q] += v;
     }
 }
 
-template <typename T>
+template <typename T, int E>
 inline __attribute__((always_inline)) void laplacian_row(const T *__restrict r0, const T *__restrict r1,
                                                          const T *__restrict r2, T *__restrict out, int lo, int hi)
 {
 #pragma omp simd
-    for (int i = lo; i < hi; ++i) {
-        const T cc = r1[i];
-        out[i] = ((r1[i - 1] - cc) + (r1[i + 1] - cc)) + ((r0[i] - cc) + (r2[i] - cc));
+    for (int q = lo * E; q < hi * E; ++q) {
+        const T cc = r1[q];
+        out[q] = ((r1[q - E] - cc) + (r1[q + E] - cc)) + ((r0[q] - cc) + (r2[q] - cc));
     }
 }
 
@@ -71,7 +74,7 @@ inline T *laplacian_slot(T *scratch, std::ptrdiff_t s, int a, int b, int row)
     return row >= b - 1 ? scratch + (3 + row - (b - 1)) * s : scratch + ((row - a + 1) % 3) * s;
 }
 
-template <typename T, bool Lossy>
+template <typename T, bool Lossy, int E>
 inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int a,
                                                      int b, const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)
 {
@@ -79,8 +82,8 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
         return;
     if (phase != BulkPhase::sweep)
         for (int row : {a - 1, a, b - 1, b})
-            laplacian_row(u + (row - 1) * s, u + row * s, u + (row + 1) * s, laplacian_slot(scratch, s, a, b, row),
-                          i0 - 1, i1 + 1);
+            laplacian_row<T, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s,
+                                laplacian_slot(scratch, s, a, b, row), i0 - 1, i1 + 1);
     if (phase == BulkPhase::prologue)
         return;
     for (int j = a; j < b; ++j) {
@@ -90,9 +93,9 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
         T *lm = laplacian_slot(scratch, s, a, b, j - 1), *l0 = laplacian_slot(scratch, s, a, b, j),
           *lp = laplacian_slot(scratch, s, a, b, j + 1);
         if (j + 1 < b - 1)
-            output_row<T, Lossy, true>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
+            output_row<T, Lossy, true, E>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
         else
-            output_row<T, Lossy, false>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
+            output_row<T, Lossy, false, E>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
     }
 }
 
@@ -107,11 +110,11 @@ using BulkFn = void (*)(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,
                         BulkPhase);
 
 #define HAPTIC_BULK_VARIANT(NAME, ATTR)                                                                                \
-    template <typename T, bool Lossy>                                                                                  \
+    template <typename T, bool Lossy, int E>                                                                           \
     ATTR void NAME(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,                          \
                    const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)                                          \
     {                                                                                                                  \
-        bulk_body<T, Lossy>(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);                                           \
+        bulk_body<T, Lossy, E>(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);                                        \
     }
 
 HAPTIC_BULK_VARIANT(bulk_baseline, )
@@ -134,20 +137,20 @@ int kernel_isa_level()
 
 namespace {
 
-template <typename T, bool Lossy>
+template <typename T, bool Lossy, int E>
 BulkFn<T> select_bulk()
 {
 #ifdef HAPTIC_DISPATCH
     switch (kernel_isa_level()) {
     case 2:
-        return bulk_avx512<T, Lossy>;
+        return bulk_avx512<T, Lossy, E>;
     case 1:
-        return bulk_avx2<T, Lossy>;
+        return bulk_avx2<T, Lossy, E>;
     default:
         break;
     }
 #endif
-    return bulk_baseline<T, Lossy>;
+    return bulk_baseline<T, Lossy, E>;
 }
 
 } // namespace
@@ -156,8 +159,16 @@ template <typename T, bool Lossy>
 void bulk_update(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
                  const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)
 {
-    static const BulkFn<T> fn = select_bulk<T, Lossy>();
+    static const BulkFn<T> fn = select_bulk<T, Lossy, 1>();
     fn(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);
+}
+
+template <typename T, bool Lossy, int E>
+void bulk_update_lanes(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
+                       const BulkCoefficients<T> &c, T *scratch)
+{
+    static const BulkFn<T> fn = select_bulk<T, Lossy, E>();
+    fn(u, d, dn, s, i0, i1, j0, j1, c, scratch, BulkPhase::both);
 }
 
 template <typename T, bool Lossy>
@@ -188,6 +199,19 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
                                     const BulkCoefficients<T> &, T *, BulkPhase);                                      \
     template void bulk_update_threads<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                   \
                                             const BulkCoefficients<T> &, int, T *);
+#define HAPTIC_LANES_INSTANCES(T, L)                                                                                   \
+    template void bulk_update_lanes<T, L, 1>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
+                                             const BulkCoefficients<T> &, T *);                                        \
+    template void bulk_update_lanes<T, L, 2>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
+                                             const BulkCoefficients<T> &, T *);                                        \
+    template void bulk_update_lanes<T, L, 4>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
+                                             const BulkCoefficients<T> &, T *);                                        \
+    template void bulk_update_lanes<T, L, 8>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
+                                             const BulkCoefficients<T> &, T *);
+HAPTIC_LANES_INSTANCES(float, false)
+HAPTIC_LANES_INSTANCES(float, true)
+HAPTIC_LANES_INSTANCES(double, false)
+HAPTIC_LANES_INSTANCES(double, true)
 HAPTIC_BULK_INSTANCES(float, false)
 HAPTIC_BULK_INSTANCES(float, true)
 HAPTIC_BULK_INSTANCES(double, false)

@@ -58,6 +58,14 @@ template <typename T, bool Lossy>
 void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
                          const BulkCoefficients<T> &c, int threads, T *scratch);
 
+// Several independent fields of one plate side by side (engine/lanes.h): node
+// (i, j) of lane l at u[j * stride + i * E + l], `stride` elements (a multiple
+// of E) per row; otherwise as bulk_update, one thread, both phases. Per lane
+// the arithmetic is bulk_update's, term for term.
+template <typename T, bool Lossy, int E>
+void bulk_update_lanes(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
+                       const BulkCoefficients<T> &c, T *scratch);
+
 // Which instruction set the dispatcher picked (for the benchmark's report).
 const char *bulk_update_isa();
 // Run-time ISA dispatch of the kernels (this header's and edge_kernels.h's):

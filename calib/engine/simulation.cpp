@@ -12,41 +12,9 @@
 #include <optional>
 #include <type_traits>
 
-#if defined(__SSE__) || defined(__x86_64__)
-#include <xmmintrin.h>
-#define SIMULATION_HAVE_MXCSR 1
-#endif
-
 namespace calib::engine {
 
 namespace {
-
-// Flush-to-zero and denormals-are-zero on this thread only. A single-threaded
-// run needs no more; ScopedFlushDenormals also forks an OpenMP team to set
-// the workers' flags, and that fork/join per run() call cost 25 ms on a
-// loaded 2-core machine (run(500) on a 40 x 30 grid: 56 instead of 2.3 us per
-// step; docs/engine.md, "Stability suite").
-class ThreadFlushDenormals {
-  public:
-    ThreadFlushDenormals()
-    {
-#ifdef SIMULATION_HAVE_MXCSR
-        saved_ = _mm_getcsr();
-        _mm_setcsr(saved_ | 0x8040u);
-#endif
-    }
-    ~ThreadFlushDenormals()
-    {
-#ifdef SIMULATION_HAVE_MXCSR
-        _mm_setcsr(saved_);
-#endif
-    }
-    ThreadFlushDenormals(const ThreadFlushDenormals &) = delete;
-    ThreadFlushDenormals &operator=(const ThreadFlushDenormals &) = delete;
-
-  private:
-    unsigned saved_ = 0;
-};
 
 using io::fmt;
 
@@ -72,6 +40,18 @@ void check_stable_time_step(const PlateOperator &op, double k)
     op.check_time_step(k);
 }
 
+double kirchhoff_time_step(const PlateOperator &op, const SimulationOptions &options)
+{
+    if (options.time_step_s > 0) {
+        if (!options.engine.skip_stability_check)
+            check_stable_time_step(op, options.time_step_s);
+        return options.time_step_s;
+    }
+    if (!(options.courant > 0 && options.courant < 1))
+        throw std::invalid_argument("courant factor must lie in (0, 1)");
+    return options.courant * op.max_time_step();
+}
+
 const char *precision_name(Precision p) { return p == Precision::f32 ? "float" : "double"; }
 
 Simulation::Simulation(std::shared_ptr<const PlateOperator> op, const SimulationOptions &options)
@@ -93,15 +73,7 @@ Simulation::Simulation(std::shared_ptr<const PlateOperator> op, const Simulation
         engine_ = std::make_unique<mindlin::MindlinEngine>(std::move(m), k_);
         return;
     }
-    if (options_.time_step_s > 0) {
-        k_ = options_.time_step_s;
-        if (!options_.engine.skip_stability_check)
-            check_stable_time_step(*op_, k_);
-    } else {
-        if (!(options_.courant > 0 && options_.courant < 1))
-            throw std::invalid_argument("courant factor must lie in (0, 1)");
-        k_ = options_.courant * op_->max_time_step();
-    }
+    k_ = kirchhoff_time_step(*op_, options_);
     if (options_.precision == Precision::f32)
         engine_ = std::make_unique<PlateEngine<float>>(op_, k_, options_.engine);
     else

@@ -68,6 +68,9 @@ struct SimulationOptions {
 // assembled operator. With loss, the message names the loss when it is what
 // breaks the bound (the step would be stable without it).
 void check_stable_time_step(const PlateOperator &op, double k);
+// The Kirchhoff engine's time step for these options: time_step_s (checked
+// against the bound) or courant x the bound.
+double kirchhoff_time_step(const PlateOperator &op, const SimulationOptions &options);
 
 class Simulation {
   public:

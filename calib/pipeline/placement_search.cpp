@@ -1,9 +1,11 @@
 #include "pipeline/placement_search.h"
 
+#include "engine/lanes.h"
 #include "io/format.h"
 #include "pipeline/data/lead_time.h"
 #include "pipeline/placement/placement.h"
 #include "pipeline/placement/site_recording.h"
+#include "pipeline/signal/first_failure.h"
 #include "pipeline/signal/pulse.h"
 
 #include <algorithm>
@@ -42,7 +44,8 @@ std::string focus_name(const CalibrationInput &in, Point p)
 namespace {
 
 // Per emitter, the pulse responses r and the impulse responses h at every
-// candidate site: one reciprocity simulation each, in parallel.
+// candidate site: one reciprocity simulation each (record_sites_of: side by
+// side in the engine's lanes where the plate allows), in parallel.
 struct EmitterResponses {
     std::vector<std::vector<std::vector<float>>> pulse, impulse; // [emitter][site][n]
 };
@@ -55,17 +58,28 @@ EmitterResponses simulate_emitters(const CalibrationInput &in, const std::vector
     out.pulse.resize(emitters.size());
     out.impulse.resize(emitters.size());
     const std::vector<double> pulse_d = sample_pulse(in.pulse, rate_d);
-    size_t done = 0;
-    std::string failure;
+    const engine::SimulationOptions options = single_core_options(in);
+    engine::Simulation probe(in.plate, options);
+    const double k = probe.time_step_s();
+    const std::size_t steps = probe.steps_for(in.calibration.window_s);
+    auto name = [&](std::size_t e) {
+        return e < foci ? focus_name(in, emitters[e]) : "probe " + std::to_string(e - foci);
+    };
+    std::vector<SiteRecording> recordings;
+    try {
+        recordings = record_sites_of(in.plate, options, emitters, sites, steps, site_recording_options(k, rate_d),
+                                     [&](std::size_t done, std::size_t total) {
+                                         if (progress)
+                                             progress(stage, done, total);
+                                     });
+    } catch (const engine::SourceFailure &ex) {
+        throw std::runtime_error(name(ex.source()) + ": " + ex.what());
+    }
+    FirstFailure failure;
 #pragma omp parallel for schedule(dynamic)
     for (size_t e = 0; e < emitters.size(); e++) {
         try {
-            engine::Simulation sim(in.plate, single_core_options(in));
-            const double k = sim.time_step_s();
-            const std::size_t steps = sim.steps_for(in.calibration.window_s);
-            const SiteRecording rec_sites =
-                record_sites(sim, emitters[e], sites, steps, site_recording_options(k, rate_d));
-            const std::vector<std::vector<double>> resampled = site_responses_at(rec_sites, k, steps, rate_d);
+            const std::vector<std::vector<double>> resampled = site_responses_at(recordings[e], k, steps, rate_d);
             std::vector<std::vector<float>> rec(sites.size()), imp(sites.size());
             for (size_t i = 0; i < sites.size(); i++) {
                 const std::vector<double> &h = resampled[i];
@@ -82,18 +96,10 @@ EmitterResponses simulate_emitters(const CalibrationInput &in, const std::vector
             out.pulse[e] = std::move(rec);
             out.impulse[e] = std::move(imp);
         } catch (const std::exception &ex) {
-#pragma omp critical
-            failure = (e < foci ? focus_name(in, emitters[e]) : "probe " + std::to_string(e - foci)) + ": " + ex.what();
-        }
-#pragma omp critical
-        {
-            done++;
-            if (progress)
-                progress(stage, done, emitters.size());
+            failure.keep(e, name(e) + ": " + ex.what());
         }
     }
-    if (!failure.empty())
-        throw std::runtime_error(failure);
+    failure.rethrow();
     return out;
 }
 

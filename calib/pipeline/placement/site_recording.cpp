@@ -1,5 +1,7 @@
 #include "pipeline/placement/site_recording.h"
 
+#include "engine/lanes.h"
+#include "pipeline/signal/first_failure.h"
 #include "pipeline/signal/resample.h"
 #include "pipeline/transfer/transfer.h"
 
@@ -106,6 +108,59 @@ SiteRecording record_sites(engine::Simulation &sim, Point source, const std::vec
         throw std::logic_error("record_sites: " + std::to_string(s) + " frames recorded, " + std::to_string(samples) +
                                " expected");
     return rec;
+}
+
+std::vector<SiteRecording> record_sites_of(std::shared_ptr<const engine::PlateOperator> plate,
+                                           const engine::SimulationOptions &options, const std::vector<Point> &sources,
+                                           const std::vector<Point> &sites, std::size_t steps,
+                                           const SiteRecordingOptions &o,
+                                           const std::function<void(std::size_t, std::size_t)> &progress)
+{
+    std::vector<SiteRecording> out(sources.size());
+    if (engine::lanes_apply(*plate, options)) {
+        const double k = engine::kirchhoff_time_step(*plate, options);
+        engine::LanesRequest rq;
+        for (const Point &p : sources)
+            rq.sources.push_back({p.x_m, p.y_m});
+        for (const Point &p : sites)
+            rq.receivers.push_back({p.x_m, p.y_m});
+        std::size_t centre = 0;
+        rq.force_n =
+            o.stop_hz > 0 ? band_limited_impulse(k, o.pass_hz, o.stop_hz, centre) : std::vector<double>{1.0 / k};
+        const std::size_t M = std::max<std::size_t>(1, o.decimation);
+        rq.first_step = centre;
+        rq.interval = M;
+        rq.samples = (steps + M - 1) / M;
+        engine::SimulationOptions team = options;
+        team.engine.threads = 0; // the lanes' batches share the OpenMP team
+        std::vector<engine::LaneRecord> lanes = engine::simulate_lanes(plate, team, rq, progress);
+        for (std::size_t e = 0; e < sources.size(); e++) {
+            out[e].decimation = M;
+            out[e].rate_hz = 1.0 / (double(M) * k);
+            out[e].traces = std::move(lanes[e].traces);
+        }
+        return out;
+    }
+    std::size_t done = 0;
+    FirstFailure failure;
+#pragma omp parallel for schedule(dynamic)
+    for (std::size_t e = 0; e < sources.size(); e++) {
+        try {
+            engine::Simulation sim(plate, options);
+            out[e] = record_sites(sim, sources[e], sites, steps, o);
+        } catch (const std::exception &ex) {
+            failure.keep(e, ex.what());
+        }
+#pragma omp critical(record_sites_of)
+        {
+            done++;
+            if (progress)
+                progress(done, sources.size());
+        }
+    }
+    if (failure.failed())
+        throw engine::SourceFailure(failure.item(), failure.what());
+    return out;
 }
 
 std::vector<std::vector<double>> site_responses_at(const SiteRecording &rec, double k, std::size_t steps,

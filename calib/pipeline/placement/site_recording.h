@@ -27,6 +27,8 @@
 #include "pipeline/data/geometry.h"
 
 #include <cstddef>
+#include <functional>
+#include <memory>
 #include <vector>
 
 namespace calib::pipeline {
@@ -61,6 +63,18 @@ struct SiteRecording {
 // simulation's whole-field scans).
 SiteRecording record_sites(engine::Simulation &sim, Point source, const std::vector<Point> &sites, std::size_t steps,
                            const SiteRecordingOptions &o);
+
+// The recordings of every source (each its own impulse, as record_sites):
+// the sources side by side in the engine's lanes where the plate allows
+// (engine/lanes.h: clamped and supported edges, no thick plate; equal to
+// record_sites to round-off), else one Simulation each, in parallel.
+// `options`: one simulation's (single_core_options). progress(done, total)
+// as sources finish. Throws engine::SourceFailure naming the source.
+std::vector<SiteRecording> record_sites_of(std::shared_ptr<const engine::PlateOperator> plate,
+                                           const engine::SimulationOptions &options, const std::vector<Point> &sources,
+                                           const std::vector<Point> &sites, std::size_t steps,
+                                           const SiteRecordingOptions &o,
+                                           const std::function<void(std::size_t, std::size_t)> &progress);
 
 // The recordings at the search rate: soxr from the recording rate to
 // `rate_hz`, each cut to the length the full-rate `steps` would give

@@ -27,6 +27,10 @@ class FirstFailure {
             throw std::runtime_error(what_);
     }
 
+    bool failed() const { return item_ != SIZE_MAX; }
+    std::size_t item() const { return item_; }
+    const std::string &what() const { return what_; }
+
   private:
     std::size_t item_ = SIZE_MAX;
     std::string what_;

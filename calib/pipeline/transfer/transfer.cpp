@@ -1,5 +1,6 @@
 #include "pipeline/transfer/transfer.h"
 
+#include "engine/lanes.h"
 #include "engine/simulation.h"
 #include "physics/dispersion.h"
 #include "pipeline/data/lead_time.h"
@@ -93,12 +94,50 @@ TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<P
     H.points.insert(H.points.end(), exact_points.begin(), exact_points.end());
     const std::size_t P = H.points.size(), S = H.samples, L = H.lattice.size();
     H.data.assign(H.channels * P * S, 0.0f);
+    const engine::SimulationOptions options = single_core_options(in);
+    if (engine::lanes_apply(*in.plate, options)) {
+        // The exciters side by side in the engine's lanes (engine/lanes.h).
+        const double k = engine::kirchhoff_time_step(*in.plate, options);
+        H.time_step_s = k;
+        H.rate_hz = 1.0 / (double(H.decimation) * k);
+        engine::LanesRequest rq;
+        for (const Point &e : exciters)
+            rq.sources.push_back({e.x_m, e.y_m});
+        for (const Point &p : exact_points)
+            rq.receivers.push_back({p.x_m, p.y_m});
+        std::size_t centre = 0;
+        rq.force_n =
+            o.stop_hz > 0 ? band_limited_impulse(k, o.pass_hz, o.stop_hz, centre) : std::vector<double>{1.0 / k};
+        rq.lattice_stride = L > 0 ? H.lattice.stride : 0;
+        rq.first_step = centre; // sample s is the state after step centre + s M
+        rq.interval = H.decimation;
+        rq.samples = S;
+        engine::SimulationOptions team = options;
+        team.engine.threads = 0; // the lanes' batches share the OpenMP team
+        std::vector<engine::LaneRecord> lanes;
+        try {
+            lanes = engine::simulate_lanes(in.plate, team, rq, progress);
+        } catch (const engine::SourceFailure &ex) {
+            throw std::runtime_error("transfer matrix, exciter " + std::to_string(ex.source() + 1) + ": " + ex.what());
+        }
+        for (std::size_t c = 0; c < H.channels; c++) {
+            float *out = H.data.data() + c * P * S;
+            const std::vector<float> &frames = lanes[c].lattice;
+            for (std::size_t s = 0; s < S && L > 0; s++)
+                for (std::size_t n = 0; n < L; n++)
+                    out[n * S + s] = frames[s * L + n];
+            for (std::size_t r = 0; r < exact_points.size(); r++)
+                for (std::size_t s = 0; s < S; s++)
+                    out[(L + r) * S + s] = static_cast<float>(lanes[c].traces[r][s]);
+        }
+        return H;
+    }
     std::size_t done = 0;
     std::string failure;
 #pragma omp parallel for schedule(dynamic)
     for (std::size_t c = 0; c < H.channels; c++) {
         try {
-            engine::Simulation sim(in.plate, single_core_options(in));
+            engine::Simulation sim(in.plate, options);
             const double k = sim.time_step_s();
 #pragma omp critical
             {
