@@ -16,6 +16,7 @@
 // out) shows at 3e-3 or more.
 #include "pipeline/calibrate.h"
 #include "pipeline/design/inverse_filter.h"
+#include "pipeline/design/levinson_kernels.h"
 #include "pipeline/robustness/tolerance.h"
 #include "pipeline/verification/verification.h"
 #include "pipeline/transfer/transfer.h"
@@ -103,4 +104,29 @@ TEST(InverseFilterShared, TheSharedDesignsAreThePerFocusDesignsToRoundOff)
         // Not the plain design: the second plate counts.
         EXPECT_GT(max_relative_difference(shared2[f], plain[f]), 1e-3) << "focus " << f;
     }
+}
+
+// Block Levinson's products (levinson_kernels.h) against Eigen's: the 8-channel
+// shape with its register paths (rows not a multiple of 8 included) and a
+// generic one, with leading dimensions beyond the blocks as the recursion has.
+TEST(LevinsonKernels, ProductsEqualEigensToRoundOff)
+{
+    for (int c : {8, 3})
+        for (Eigen::Index m : {Eigen::Index(1), Eigen::Index(13), Eigen::Index(64), Eigen::Index(203)}) {
+            SCOPED_TRACE("c " + std::to_string(c) + ", m " + std::to_string(m));
+            const Eigen::Index ld = m + 5;
+            const Eigen::MatrixXd A = Eigen::MatrixXd::Random(c, m), B = Eigen::MatrixXd::Random(ld, c);
+            Eigen::MatrixXd out(c, c);
+            pipeline::levinson_product(A.data(), c, B.data(), ld, m, c, out.data());
+            const Eigen::MatrixXd want = A * B.topRows(m);
+            EXPECT_LE((out - want).cwiseAbs().maxCoeff(), 1e-13 * double(m));
+
+            const Eigen::MatrixXd X = Eigen::MatrixXd::Random(ld, c), S = Eigen::MatrixXd::Random(c, c);
+            Eigen::MatrixXd Y = Eigen::MatrixXd::Random(ld, c);
+            const Eigen::MatrixXd before = Y;
+            pipeline::levinson_update(Y.data() + 2, X.data() + 1, ld, m, c, S.data());
+            Eigen::MatrixXd expect = before;
+            expect.middleRows(2, m) += X.middleRows(1, m) * S;
+            EXPECT_LE((Y - expect).cwiseAbs().maxCoeff(), 1e-13);
+        }
 }

@@ -1,5 +1,7 @@
 #include "pipeline/design/block_toeplitz.h"
 
+#include "pipeline/design/levinson_kernels.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -120,12 +122,16 @@ bool BlockLevinson::factor(const ToeplitzOperator &G)
             return false;
         // T_{k+1} [F^k; 0] = [E_f; 0 ...; df], T_{k+1} [0; B^k] = [db; 0 ...; E_b]:
         // F^{k+1} = [F^k; 0] + [0; B^k] alpha, B^{k+1} = [0; B^k] + [F^k; 0] beta.
-        const Eigen::MatrixXd df = row_.middleCols((Jl - 2 - k) * c, m) * F_.topRows(m);
-        const Eigen::MatrixXd db = top_.middleCols(c, m) * B_.bottomRows(m);
+        // The four block products through levinson_kernels.h (the hot loop):
+        // df = row_.middleCols((J - 2 - k) c, m) F_.topRows(m), db = top_.middleCols(c, m) B_.bottomRows(m),
+        // F_.middleRows(c, m) += B_.bottomRows(m) alpha, B_.middleRows(n - m - c, m) += f_.topRows(m) beta.
+        Eigen::MatrixXd df(c, c), db(c, c);
+        levinson_product(row_.data() + (Jl - 2 - k) * c * c, c, F_.data(), n, m, int(c), df.data());
+        levinson_product(top_.data() + c * c, c, B_.data() + (n - m), n, m, int(c), db.data());
         const Eigen::MatrixXd alpha = -E_.back().solve(df), beta = -lf.solve(db);
         f_.topRows(m) = F_.topRows(m);
-        F_.middleRows(c, m).noalias() += B_.bottomRows(m) * alpha;
-        B_.middleRows(n - m - c, m).noalias() += f_.topRows(m) * beta;
+        levinson_update(F_.data() + c, B_.data() + (n - m), n, m, int(c), alpha.data());
+        levinson_update(B_.data() + (n - m - c), f_.data(), n, m, int(c), beta.data());
         Ef.noalias() += db * alpha;
         Eb.noalias() += df * beta;
         E_.emplace_back(Eb);

@@ -139,11 +139,18 @@ std::vector<std::vector<float>> Playback::field(const std::vector<std::vector<do
         for (std::size_t i = 0; i < which.size(); i++) {
             std::fill(acc.begin(), acc.end(), std::complex<float>{});
             const auto *S = spectra_.data() + which[i] * C * bins_;
+            // The complex products written out: std::complex's operator*
+            // checks its result for NaN (C99 Annex G) and so stays scalar.
             for (std::size_t c = 0; c < C; c++) {
-                const auto *s = S + c * bins_;
-                const auto *f = F.data() + c * bins_;
-                for (std::size_t b = 0; b < bins_; b++)
-                    acc[b] += s[b] * f[b];
+                const float *s = reinterpret_cast<const float *>(S + c * bins_);
+                const float *f = reinterpret_cast<const float *>(F.data() + c * bins_);
+                float *a = reinterpret_cast<float *>(acc.data());
+#pragma omp simd
+                for (std::size_t b = 0; b < bins_; b++) {
+                    const float sr = s[2 * b], si = s[2 * b + 1], fr = f[2 * b], fi = f[2 * b + 1];
+                    a[2 * b] += sr * fr - si * fi;
+                    a[2 * b + 1] += sr * fi + si * fr;
+                }
             }
             for (std::size_t b = 0; b < bins_; b++) {
                 Y.p[b][0] = acc[b].real();
