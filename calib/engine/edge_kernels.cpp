@@ -65,8 +65,8 @@ using RowsFn = void (*)(std::size_t, double, const std::int32_t *, const T *, co
 
 HAPTIC_EDGE_VARIANT(baseline, )
 #ifdef HAPTIC_DISPATCH
-HAPTIC_EDGE_VARIANT(avx512, __attribute__((target("arch=x86-64-v4,prefer-vector-width=512"))))
-HAPTIC_EDGE_VARIANT(avx2, __attribute__((target("arch=x86-64-v3"))))
+HAPTIC_EDGE_VARIANT(avx512, HAPTIC_ISA_AVX512)
+HAPTIC_EDGE_VARIANT(avx2, HAPTIC_ISA_AVX2)
 #endif
 
 } // namespace
@@ -75,18 +75,8 @@ template <typename T>
 void edge_strains(std::size_t blocks, int nodes, const std::int32_t *offset, const T *weight, const T *field,
                   double *value)
 {
-    static const StrainsFn<T> fn = [] {
-        switch (kernel_isa_level()) {
-#ifdef HAPTIC_DISPATCH
-        case 2:
-            return StrainsFn<T>(strains_avx512<T>);
-        case 1:
-            return StrainsFn<T>(strains_avx2<T>);
-#endif
-        default:
-            return StrainsFn<T>(strains_baseline<T>);
-        }
-    }();
+    static const StrainsFn<T> fn =
+        HAPTIC_PICK_ISA(StrainsFn<T>, strains_avx512<T>, strains_avx2<T>, strains_baseline<T>);
     fn(blocks, nodes, offset, weight, field, value);
 }
 
@@ -94,18 +84,7 @@ template <typename T>
 void edge_rows(std::size_t blocks, double g, const std::int32_t *target, const T *inc, const EdgeRowTerms &r,
                const EdgeRowTerms &s, double *out)
 {
-    static const RowsFn<T> fn = [] {
-        switch (kernel_isa_level()) {
-#ifdef HAPTIC_DISPATCH
-        case 2:
-            return RowsFn<T>(rows_avx512<T>);
-        case 1:
-            return RowsFn<T>(rows_avx2<T>);
-#endif
-        default:
-            return RowsFn<T>(rows_baseline<T>);
-        }
-    }();
+    static const RowsFn<T> fn = HAPTIC_PICK_ISA(RowsFn<T>, rows_avx512<T>, rows_avx2<T>, rows_baseline<T>);
     fn(blocks, g, target, inc, r, s, out);
 }
 

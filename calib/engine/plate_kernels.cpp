@@ -119,8 +119,8 @@ using BulkFn = void (*)(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,
 
 HAPTIC_BULK_VARIANT(bulk_baseline, )
 #ifdef HAPTIC_DISPATCH
-HAPTIC_BULK_VARIANT(bulk_avx512, __attribute__((target("arch=x86-64-v4,prefer-vector-width=512"))))
-HAPTIC_BULK_VARIANT(bulk_avx2, __attribute__((target("arch=x86-64-v3"))))
+HAPTIC_BULK_VARIANT(bulk_avx512, HAPTIC_ISA_AVX512)
+HAPTIC_BULK_VARIANT(bulk_avx2, HAPTIC_ISA_AVX2)
 #endif
 
 int kernel_isa_level()
@@ -140,17 +140,8 @@ namespace {
 template <typename T, bool Lossy, int E>
 BulkFn<T> select_bulk()
 {
-#ifdef HAPTIC_DISPATCH
-    switch (kernel_isa_level()) {
-    case 2:
-        return bulk_avx512<T, Lossy, E>;
-    case 1:
-        return bulk_avx2<T, Lossy, E>;
-    default:
-        break;
-    }
-#endif
-    return bulk_baseline<T, Lossy, E>;
+    return HAPTIC_PICK_ISA(BulkFn<T>, (bulk_avx512<T, Lossy, E>), (bulk_avx2<T, Lossy, E>),
+                           (bulk_baseline<T, Lossy, E>));
 }
 
 } // namespace

@@ -77,4 +77,28 @@ const char *bulk_update_isa();
 // (always 0 where the build has no run-time dispatch).
 int kernel_isa_level();
 
+// Every hot loop is compiled the same way (-O3, CMake's haptic_kernel_sources):
+// a function defined three times, with HAPTIC_ISA_AVX512, HAPTIC_ISA_AVX2 (only
+// where HAPTIC_DISPATCH is defined) and no attribute, and the variant this CPU
+// runs picked once by HAPTIC_PICK_ISA(function type, avx512, avx2, baseline).
+#define HAPTIC_ISA_AVX512 __attribute__((target("arch=x86-64-v4,prefer-vector-width=512")))
+#define HAPTIC_ISA_AVX2 __attribute__((target("arch=x86-64-v3")))
+template <typename Fn>
+Fn pick_isa(Fn avx512, Fn avx2, Fn baseline)
+{
+    switch (kernel_isa_level()) {
+    case 2:
+        return avx512;
+    case 1:
+        return avx2;
+    default:
+        return baseline;
+    }
+}
+#ifdef HAPTIC_DISPATCH
+#define HAPTIC_PICK_ISA(FN, AVX512, AVX2, BASELINE) ::calib::engine::pick_isa<FN>(AVX512, AVX2, BASELINE)
+#else
+#define HAPTIC_PICK_ISA(FN, AVX512, AVX2, BASELINE) FN(BASELINE)
+#endif
+
 } // namespace calib::engine

@@ -109,43 +109,22 @@ using UpdateFn = void (*)(double *, const double *, std::ptrdiff_t, std::ptrdiff
 
 HAPTIC_LEVINSON_VARIANT(baseline, )
 #ifdef HAPTIC_DISPATCH
-HAPTIC_LEVINSON_VARIANT(avx512, __attribute__((target("arch=x86-64-v4,prefer-vector-width=512"))))
-HAPTIC_LEVINSON_VARIANT(avx2, __attribute__((target("arch=x86-64-v3"))))
+HAPTIC_LEVINSON_VARIANT(avx512, HAPTIC_ISA_AVX512)
+HAPTIC_LEVINSON_VARIANT(avx2, HAPTIC_ISA_AVX2)
 #endif
-
-template <typename Fn>
-Fn select(Fn avx512, Fn avx2, Fn baseline)
-{
-    switch (engine::kernel_isa_level()) {
-    case 2:
-        return avx512;
-    case 1:
-        return avx2;
-    default:
-        return baseline;
-    }
-}
 
 } // namespace
 
 void levinson_product(const double *A, std::ptrdiff_t lda, const double *B, std::ptrdiff_t ldb, std::ptrdiff_t m, int c,
                       double *out)
 {
-#ifdef HAPTIC_DISPATCH
-    static const ProductFn fn = select<ProductFn>(product_avx512, product_avx2, product_baseline);
-#else
-    static const ProductFn fn = product_baseline;
-#endif
+    static const ProductFn fn = HAPTIC_PICK_ISA(ProductFn, product_avx512, product_avx2, product_baseline);
     fn(A, lda, B, ldb, m, c, out);
 }
 
 void levinson_update(double *Y, const double *X, std::ptrdiff_t ld, std::ptrdiff_t m, int c, const double *S)
 {
-#ifdef HAPTIC_DISPATCH
-    static const UpdateFn fn = select<UpdateFn>(update_avx512, update_avx2, update_baseline);
-#else
-    static const UpdateFn fn = update_baseline;
-#endif
+    static const UpdateFn fn = HAPTIC_PICK_ISA(UpdateFn, update_avx512, update_avx2, update_baseline);
     fn(Y, X, ld, m, c, S);
 }
 
