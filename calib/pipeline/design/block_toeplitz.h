@@ -57,7 +57,8 @@ class ToeplitzOperator {
 // and the B^k as columns make the unit upper triangular U with
 // G^{-1} = U diag(E_b^k)^{-1} U^T (U^T G U is lower triangular and symmetric,
 // so block diagonal): 2 C^3 J^2 products against the (C J)^3 / 3 of a
-// Cholesky factor, 1/20 for 8 exciters and J = 172.
+// Cholesky factor, 1/20 for 8 exciters and J = 172. The recursion's block
+// products run as kernels compiled per ISA (levinson_kernels.h).
 class BlockLevinson {
   public:
     BlockLevinson(std::size_t C, std::size_t J);
