@@ -18,16 +18,6 @@ using namespace plate_test;
 
 namespace {
 
-std::vector<Edges> mirror_mixes()
-{
-    std::vector<Edges> out;
-    for (int m = 0; m < 16; ++m) {
-        auto k = [&](int b) { return (m >> b) & 1 ? EdgeKind::simply_supported : EdgeKind::clamped; };
-        out.push_back({k(0), k(1), k(2), k(3)});
-    }
-    return out;
-}
-
 LanesRequest request(const PlateOperator &op, std::size_t sources, unsigned seed)
 {
     std::mt19937 rng(seed);
@@ -74,7 +64,7 @@ LaneRecord single(std::shared_ptr<const PlateOperator> op, const SimulationOptio
 TEST(Lanes, EachLaneIsItsOwnSimulation)
 {
     std::size_t compared = 0;
-    for (const Edges &e : mirror_mixes())
+    for (const Edges &e : mirror_edge_combinations())
         for (bool lossy : {false, true})
             for (Precision p : {Precision::f32, Precision::f64}) {
                 SCOPED_TRACE(describe(e) + (lossy ? " lossy " : " lossless ") + precision_name(p));

@@ -26,24 +26,13 @@ std::string name_of(const Edges &e)
     return std::string(n(e.left)) + n(e.right) + n(e.bottom) + n(e.top);
 }
 
-// Every mix of clamped and supported edges (16).
-std::vector<Edges> mirror_mixes()
-{
-    std::vector<Edges> out;
-    for (int m = 0; m < 16; ++m) {
-        auto k = [&](int b) { return (m >> b) & 1 ? EdgeKind::simply_supported : EdgeKind::clamped; };
-        out.push_back({k(0), k(1), k(2), k(3)});
-    }
-    return out;
-}
-
 } // namespace
 
 TEST(EngineMirrorEdges, RowsNextToTheEdgeAreTheMirroredStencil)
 {
     const int nx = 11, ny = 9;
     const double h = 0.01;
-    for (const Edges &e : mirror_mixes()) {
+    for (const Edges &e : mirror_edge_combinations()) {
         auto op = make_plate(nx, ny, h, e, 0.3, Loss{1.0, 2e-4});
         const double kscale = op->kappa() * op->kappa() / std::pow(h, 4), gscale = 1 / (h * h);
         auto unknown = [&](int i, int j) { return op->unknown_of()[op->grid().node(i, j)]; };
@@ -136,7 +125,7 @@ double ghost_against_band(const Edges &e, std::size_t steps, bool &mirrored)
 
 TEST(EngineMirrorEdges, GhostsAndEdgeRowsGiveTheSameRunToRoundOff)
 {
-    for (const Edges &e : mirror_mixes()) {
+    for (const Edges &e : mirror_edge_combinations()) {
         bool mirrored = false;
         // Double: the two differ only in summation order (the band sums in double too).
         EXPECT_LT(ghost_against_band<double>(e, 2000, mirrored), 1e-11) << name_of(e);
@@ -157,7 +146,7 @@ TEST(EngineMirrorEdges, AFreeEdgeKeepsTheEdgeBand)
 
 TEST(EngineMirrorEdges, EnergyIsConservedWithoutLossAndFallsWithIt)
 {
-    for (const Edges &e : mirror_mixes()) {
+    for (const Edges &e : mirror_edge_combinations()) {
         for (Loss loss : {Loss{}, Loss{3.0, 1e-3}}) {
             auto op = make_plate(19, 14, 0.01, e, 0.3, loss);
             PlateEngine<double> eng(op, 0.95 * op->max_time_step());

@@ -64,6 +64,17 @@ inline std::vector<Edges> all_edge_combinations()
     return out;
 }
 
+// Every mix of clamped and supported edges (16): the plates with ghost mirrors.
+inline std::vector<Edges> mirror_edge_combinations()
+{
+    std::vector<Edges> out;
+    for (int m = 0; m < 16; ++m) {
+        auto k = [&](int b) { return (m >> b) & 1 ? EdgeKind::simply_supported : EdgeKind::clamped; };
+        out.push_back({k(0), k(1), k(2), k(3)});
+    }
+    return out;
+}
+
 inline std::string describe(const Edges &e)
 {
     return std::string("left=") + edge_kind_name(e.left) + " right=" + edge_kind_name(e.right) +

@@ -1,6 +1,5 @@
 #include "pipeline/placement/site_recording.h"
 
-#include "engine/lanes.h"
 #include "pipeline/signal/first_failure.h"
 #include "pipeline/signal/resample.h"
 #include "pipeline/transfer/transfer.h"
@@ -72,10 +71,7 @@ SiteRecording record_sites(engine::Simulation &sim, Point source, const std::vec
     const std::size_t M = rec.decimation;
     const std::size_t src = sim.add_source(source.x_m, source.y_m);
     std::size_t centre = 0;
-    if (o.stop_hz > 0)
-        sim.set_source_signal(src, band_limited_impulse(k, o.pass_hz, o.stop_hz, centre));
-    else
-        sim.set_source_impulse(src);
+    sim.set_source_signal(src, impulse_force(k, o.pass_hz, o.stop_hz, centre));
     // Sample s is the state after step centre + s M: the response at (s M + 1) k.
     const std::size_t samples = (steps + M - 1) / M;
     const std::vector<SiteTap> taps = taps_of(sim, sites);
@@ -119,21 +115,9 @@ std::vector<SiteRecording> record_sites_of(std::shared_ptr<const engine::PlateOp
     std::vector<SiteRecording> out(sources.size());
     if (engine::lanes_apply(*plate, options)) {
         const double k = engine::kirchhoff_time_step(*plate, options);
-        engine::LanesRequest rq;
-        for (const Point &p : sources)
-            rq.sources.push_back({p.x_m, p.y_m});
-        for (const Point &p : sites)
-            rq.receivers.push_back({p.x_m, p.y_m});
-        std::size_t centre = 0;
-        rq.force_n =
-            o.stop_hz > 0 ? band_limited_impulse(k, o.pass_hz, o.stop_hz, centre) : std::vector<double>{1.0 / k};
         const std::size_t M = std::max<std::size_t>(1, o.decimation);
-        rq.first_step = centre;
-        rq.interval = M;
-        rq.samples = (steps + M - 1) / M;
-        engine::SimulationOptions team = options;
-        team.engine.threads = 0; // the lanes' batches share the OpenMP team
-        std::vector<engine::LaneRecord> lanes = engine::simulate_lanes(plate, team, rq, progress);
+        std::vector<engine::LaneRecord> lanes =
+            impulse_lanes(plate, options, sources, sites, 0, o.pass_hz, o.stop_hz, M, (steps + M - 1) / M, progress);
         for (std::size_t e = 0; e < sources.size(); e++) {
             out[e].decimation = M;
             out[e].rate_hz = 1.0 / (double(M) * k);

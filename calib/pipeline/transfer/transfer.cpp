@@ -1,6 +1,5 @@
 #include "pipeline/transfer/transfer.h"
 
-#include "engine/lanes.h"
 #include "engine/simulation.h"
 #include "physics/dispersion.h"
 #include "pipeline/data/lead_time.h"
@@ -77,6 +76,33 @@ TransferOptions transfer_options(const CalibrationInput &in, double k)
     return o;
 }
 
+std::vector<double> impulse_force(double k, double pass_hz, double stop_hz, std::size_t &centre)
+{
+    centre = 0;
+    return stop_hz > 0 ? band_limited_impulse(k, pass_hz, stop_hz, centre) : std::vector<double>{1.0 / k};
+}
+
+std::vector<engine::LaneRecord> impulse_lanes(std::shared_ptr<const engine::PlateOperator> plate,
+                                              const engine::SimulationOptions &options,
+                                              const std::vector<Point> &sources, const std::vector<Point> &receivers,
+                                              int lattice_stride, double pass_hz, double stop_hz, std::size_t interval,
+                                              std::size_t samples,
+                                              const std::function<void(std::size_t, std::size_t)> &progress)
+{
+    engine::LanesRequest rq;
+    for (const Point &p : sources)
+        rq.sources.push_back({p.x_m, p.y_m});
+    for (const Point &p : receivers)
+        rq.receivers.push_back({p.x_m, p.y_m});
+    rq.force_n = impulse_force(engine::kirchhoff_time_step(*plate, options), pass_hz, stop_hz, rq.first_step);
+    rq.lattice_stride = lattice_stride;
+    rq.interval = interval;
+    rq.samples = samples;
+    engine::SimulationOptions team = options;
+    team.engine.threads = 0; // the batches share the OpenMP team
+    return engine::simulate_lanes(std::move(plate), team, rq, progress);
+}
+
 TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<Point> &exciters,
                                  const std::vector<Point> &exact_points, const TransferOptions &o,
                                  const TransferProgress &progress)
@@ -100,23 +126,10 @@ TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<P
         const double k = engine::kirchhoff_time_step(*in.plate, options);
         H.time_step_s = k;
         H.rate_hz = 1.0 / (double(H.decimation) * k);
-        engine::LanesRequest rq;
-        for (const Point &e : exciters)
-            rq.sources.push_back({e.x_m, e.y_m});
-        for (const Point &p : exact_points)
-            rq.receivers.push_back({p.x_m, p.y_m});
-        std::size_t centre = 0;
-        rq.force_n =
-            o.stop_hz > 0 ? band_limited_impulse(k, o.pass_hz, o.stop_hz, centre) : std::vector<double>{1.0 / k};
-        rq.lattice_stride = L > 0 ? H.lattice.stride : 0;
-        rq.first_step = centre; // sample s is the state after step centre + s M
-        rq.interval = H.decimation;
-        rq.samples = S;
-        engine::SimulationOptions team = options;
-        team.engine.threads = 0; // the lanes' batches share the OpenMP team
         std::vector<engine::LaneRecord> lanes;
-        try {
-            lanes = engine::simulate_lanes(in.plate, team, rq, progress);
+        try { // sample s is the state after step centre + s M
+            lanes = impulse_lanes(in.plate, options, exciters, exact_points, L > 0 ? H.lattice.stride : 0, o.pass_hz,
+                                  o.stop_hz, H.decimation, S, progress);
         } catch (const engine::SourceFailure &ex) {
             throw std::runtime_error("transfer matrix, exciter " + std::to_string(ex.source() + 1) + ": " + ex.what());
         }
@@ -146,10 +159,7 @@ TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<P
             }
             const std::size_t src = sim.add_source(exciters[c].x_m, exciters[c].y_m);
             std::size_t centre = 0;
-            if (o.stop_hz > 0)
-                sim.set_source_signal(src, band_limited_impulse(k, o.pass_hz, o.stop_hz, centre));
-            else
-                sim.set_source_impulse(src);
+            sim.set_source_signal(src, impulse_force(k, o.pass_hz, o.stop_hz, centre));
             for (const Point &p : exact_points)
                 sim.add_receiver(p.x_m, p.y_m);
             float *out = H.data.data() + c * P * S;

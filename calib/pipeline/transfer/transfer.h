@@ -25,6 +25,8 @@
 #include "pipeline/data/input.h"
 #include "pipeline/data/transfer_matrix.h"
 
+#include "engine/lanes.h"
+
 #include <cstddef>
 #include <functional>
 #include <string>
@@ -53,8 +55,25 @@ ObservationLattice observation_lattice(const CalibrationInput &in, int stride);
 // impulse (sum * k = 1 N s), and its centre index.
 std::vector<double> band_limited_impulse(double time_step_s, double pass_hz, double stop_hz, std::size_t &centre);
 
-// One simulation per exciter (in parallel, one core each), recording the
-// lattice and `exact_points`. Throws std::runtime_error on divergence.
+// The force of an impulse simulation: the band-limited impulse above when
+// stop_hz > 0, else one 1 N s impulse in the first step (centre 0).
+std::vector<double> impulse_force(double time_step_s, double pass_hz, double stop_hz, std::size_t &centre);
+
+// One impulse simulation per source side by side in the engine's lanes
+// (engine/lanes.h; the caller checks lanes_apply): the receivers and, with
+// lattice_stride > 0, the lattice read after the impulse's centre step and
+// every `interval` steps after it, `samples` times. `options`: one
+// simulation's; the batches share the OpenMP team. Throws engine::SourceFailure.
+std::vector<engine::LaneRecord> impulse_lanes(std::shared_ptr<const engine::PlateOperator> plate,
+                                              const engine::SimulationOptions &options,
+                                              const std::vector<Point> &sources, const std::vector<Point> &receivers,
+                                              int lattice_stride, double pass_hz, double stop_hz, std::size_t interval,
+                                              std::size_t samples,
+                                              const std::function<void(std::size_t, std::size_t)> &progress);
+
+// One simulation per exciter (in parallel, one core each; side by side in
+// lanes where the plate allows), recording the lattice and `exact_points`.
+// Throws std::runtime_error on divergence.
 using TransferProgress = std::function<void(std::size_t done, std::size_t total)>;
 TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<Point> &exciters,
                                  const std::vector<Point> &exact_points, const TransferOptions &options,
