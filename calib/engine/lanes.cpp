@@ -329,6 +329,20 @@ std::vector<LaneRecord> simulate_lanes(std::shared_ptr<const PlateOperator> op, 
                                        ") at step " + std::to_string(n) + " (t = " + fmt("%.6g", double(n) * k) +
                                        " s); refused before it reached the field");
 
+    // Points off the plate are refused here, named, not inside the team
+    // (an exception cannot leave an OpenMP region).
+    for (std::size_t n = 0; n < rq.sources.size(); ++n)
+        try {
+            (void)op->point_weights(rq.sources[n].x_m, rq.sources[n].y_m);
+        } catch (const std::exception &e) {
+            throw SourceFailure(n, std::string("source: ") + e.what());
+        }
+    for (std::size_t n = 0; n < rq.receivers.size(); ++n)
+        try {
+            (void)op->point_weights(rq.receivers[n].x_m, rq.receivers[n].y_m);
+        } catch (const std::exception &e) {
+            throw std::invalid_argument("simulate_lanes: receiver " + std::to_string(n) + ": " + e.what());
+        }
     const int threads = options.engine.threads > 0 ? options.engine.threads : omp_get_max_threads();
     if (rq.width != 0 && rq.width != 1 && rq.width != 2 && rq.width != 4 && rq.width != 8)
         throw std::invalid_argument("simulate_lanes: width must be 0, 1, 2, 4 or 8");
@@ -361,11 +375,13 @@ std::vector<LaneRecord> simulate_lanes(std::shared_ptr<const PlateOperator> op, 
             else
                 run_batch_any<double>(plan[b].width, *op, k, options.field_check_interval, rq, firsts[b], plan[b].lanes,
                                       out);
-        } catch (const SourceFailure &e) {
+        } catch (const std::exception &e) { // a batch that could not run (memory) is its first source's failure
+            const auto *lane = dynamic_cast<const SourceFailure *>(&e);
+            const std::size_t source = lane ? lane->source() : firsts[b];
 #pragma omp critical(lanes_state)
-            if (!failed || e.source() < failed_source) {
+            if (!failed || source < failed_source) {
                 failed = true;
-                failed_source = e.source();
+                failed_source = source;
                 failure = e.what();
             }
         }

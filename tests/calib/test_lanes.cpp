@@ -163,6 +163,22 @@ TEST(Lanes, ADivergingLaneIsNamedAndAForceOutOfRangeRefused)
     stable.precision = Precision::f64;
     EXPECT_NO_THROW((void)simulate_lanes(op, stable, rq));
 
+    // A point off the plate: the source named, before any batch runs.
+    rq.force_n[5] = 0.0;
+    rq.sources[2] = {0.5, 0.1};
+    try {
+        (void)simulate_lanes(op, stable, rq);
+        FAIL() << "a source off the plate was not refused";
+    } catch (const SourceFailure &e) {
+        EXPECT_EQ(e.source(), 2u);
+        EXPECT_NE(std::string(e.what()).find("outside the plate"), std::string::npos) << e.what();
+    }
+    rq.sources[2] = rq.sources[1];
+    rq.receivers[3] = {0.1, -0.2};
+    EXPECT_THROW((void)simulate_lanes(op, stable, rq), std::invalid_argument);
+    rq.receivers[3] = rq.receivers[0];
+    EXPECT_NO_THROW((void)simulate_lanes(op, stable, rq));
+
     // A free edge has no ghost mirror: refused, Simulation's to run.
     auto free_plate =
         make_plate(23, 19, 0.01, {EdgeKind::free, EdgeKind::clamped, EdgeKind::clamped, EdgeKind::clamped});

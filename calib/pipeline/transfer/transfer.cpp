@@ -3,6 +3,7 @@
 #include "engine/simulation.h"
 #include "physics/dispersion.h"
 #include "pipeline/data/lead_time.h"
+#include "pipeline/signal/first_failure.h"
 #include "pipeline/signal/pulse.h"
 
 #include <algorithm>
@@ -121,74 +122,68 @@ TransferMatrix simulate_transfer(const CalibrationInput &in, const std::vector<P
     const std::size_t P = H.points.size(), S = H.samples, L = H.lattice.size();
     H.data.assign(H.channels * P * S, 0.0f);
     const engine::SimulationOptions options = single_core_options(in);
+    // Per exciter, the lattice frames and the exact points' traces, sample s
+    // the state after step centre + s M: side by side in the engine's lanes
+    // where the plate allows (engine/lanes.h), else one Simulation each.
+    std::vector<engine::LaneRecord> rec(H.channels);
     if (engine::lanes_apply(*in.plate, options)) {
-        // The exciters side by side in the engine's lanes (engine/lanes.h).
         const double k = engine::kirchhoff_time_step(*in.plate, options);
         H.time_step_s = k;
         H.rate_hz = 1.0 / (double(H.decimation) * k);
-        std::vector<engine::LaneRecord> lanes;
-        try { // sample s is the state after step centre + s M
-            lanes = impulse_lanes(in.plate, options, exciters, exact_points, L > 0 ? H.lattice.stride : 0, o.pass_hz,
-                                  o.stop_hz, H.decimation, S, progress);
+        try {
+            rec = impulse_lanes(in.plate, options, exciters, exact_points, L > 0 ? H.lattice.stride : 0, o.pass_hz,
+                                o.stop_hz, H.decimation, S, progress);
         } catch (const engine::SourceFailure &ex) {
             throw std::runtime_error("transfer matrix, exciter " + std::to_string(ex.source() + 1) + ": " + ex.what());
         }
-        for (std::size_t c = 0; c < H.channels; c++) {
-            float *out = H.data.data() + c * P * S;
-            const std::vector<float> &frames = lanes[c].lattice;
-            for (std::size_t s = 0; s < S && L > 0; s++)
-                for (std::size_t n = 0; n < L; n++)
-                    out[n * S + s] = frames[s * L + n];
-            for (std::size_t r = 0; r < exact_points.size(); r++)
-                for (std::size_t s = 0; s < S; s++)
-                    out[(L + r) * S + s] = static_cast<float>(lanes[c].traces[r][s]);
-        }
-        return H;
-    }
-    std::size_t done = 0;
-    std::string failure;
+    } else {
+        std::size_t done = 0;
+        FirstFailure failure;
 #pragma omp parallel for schedule(dynamic)
-    for (std::size_t c = 0; c < H.channels; c++) {
-        try {
-            engine::Simulation sim(in.plate, options);
-            const double k = sim.time_step_s();
+        for (std::size_t c = 0; c < H.channels; c++) {
+            try {
+                engine::Simulation sim(in.plate, options);
+                const double k = sim.time_step_s();
+#pragma omp critical
+                {
+                    H.time_step_s = k;
+                    H.rate_hz = 1.0 / (double(H.decimation) * k);
+                }
+                const std::size_t src = sim.add_source(exciters[c].x_m, exciters[c].y_m);
+                std::size_t centre = 0;
+                sim.set_source_signal(src, impulse_force(k, o.pass_hz, o.stop_hz, centre));
+                for (const Point &p : exact_points)
+                    sim.add_receiver(p.x_m, p.y_m);
+                if (L > 0)
+                    sim.record_lattice(H.lattice.stride, centre, H.decimation);
+                sim.run(centre + (S - 1) * H.decimation + 1);
+                rec[c].lattice = sim.lattice_frames();
+                for (const std::vector<double> &tr : sim.traces()) {
+                    rec[c].traces.emplace_back(S);
+                    for (std::size_t s = 0; s < S; s++)
+                        rec[c].traces.back()[s] = tr[centre + s * H.decimation];
+                }
+            } catch (const std::exception &ex) {
+                failure.keep(c, "transfer matrix, exciter " + std::to_string(c + 1) + ": " + ex.what());
+            }
 #pragma omp critical
             {
-                H.time_step_s = k;
-                H.rate_hz = 1.0 / (double(H.decimation) * k);
+                done++;
+                if (progress)
+                    progress(done, H.channels);
             }
-            const std::size_t src = sim.add_source(exciters[c].x_m, exciters[c].y_m);
-            std::size_t centre = 0;
-            sim.set_source_signal(src, impulse_force(k, o.pass_hz, o.stop_hz, centre));
-            for (const Point &p : exact_points)
-                sim.add_receiver(p.x_m, p.y_m);
-            float *out = H.data.data() + c * P * S;
-            // Sample s is the state after step centre + s M (trace index).
-            if (L > 0)
-                sim.record_lattice(H.lattice.stride, centre, H.decimation);
-            sim.run(centre + (S - 1) * H.decimation + 1);
-            const std::vector<float> &frames = sim.lattice_frames();
-            for (std::size_t s = 0; s < S && L > 0; s++)
-                for (std::size_t n = 0; n < L; n++)
-                    out[n * S + s] = frames[s * L + n];
-            for (std::size_t r = 0; r < exact_points.size(); r++) {
-                const std::vector<double> &tr = sim.traces()[r];
-                for (std::size_t s = 0; s < S; s++)
-                    out[(L + r) * S + s] = static_cast<float>(tr[centre + s * H.decimation]);
-            }
-        } catch (const std::exception &ex) {
-#pragma omp critical
-            failure = "transfer matrix, exciter " + std::to_string(c + 1) + ": " + ex.what();
         }
-#pragma omp critical
-        {
-            done++;
-            if (progress)
-                progress(done, H.channels);
-        }
+        failure.rethrow();
     }
-    if (!failure.empty())
-        throw std::runtime_error(failure);
+    for (std::size_t c = 0; c < H.channels; c++) {
+        float *out = H.data.data() + c * P * S;
+        for (std::size_t s = 0; s < S && L > 0; s++)
+            for (std::size_t n = 0; n < L; n++)
+                out[n * S + s] = rec[c].lattice[s * L + n];
+        for (std::size_t r = 0; r < exact_points.size(); r++)
+            for (std::size_t s = 0; s < S; s++)
+                out[(L + r) * S + s] = static_cast<float>(rec[c].traces[r][s]);
+    }
     return H;
 }
 
