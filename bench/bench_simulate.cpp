@@ -1,6 +1,6 @@
 // `calibgen simulate` end to end against a plain loop doing the same job:
 // the Fig. 7 acrylic plate (0.7 x 0.7 m, 2 mm, clamped, the Fig. 7 loss) on
-// n x n intervals, float, one impulse source, one receiver read every step,
+// n x n intervals, float or double, one impulse source, one receiver read every step,
 // `steps` steps. Ours: engine::Simulation, timed from its construction
 // (operator assembly, stability bound) to the last trace sample. The plain
 // loop: the lossy leapfrog (13-point biharmonic, sigma0 and sigma1 terms)
@@ -55,6 +55,7 @@ struct Job {
     int n;
     std::size_t steps;
     int threads;
+    bool f64 = false; // double precision (ours and the plain loop)
 };
 
 // Ours, end to end; returns the seconds and the setup's share.
@@ -64,7 +65,7 @@ double run_ours(const Job &job, double &setup_s, double &checksum)
     const double h = side_m / job.n;
     auto op = std::make_shared<PlateOperator>(fig7_plate(), Grid{job.n, job.n, h});
     SimulationOptions o;
-    o.precision = Precision::f32;
+    o.precision = job.f64 ? Precision::f64 : Precision::f32;
     o.engine.threads = job.threads;
     Simulation sim(op, o);
     sim.add_source(0.3 * side_m, 0.41 * side_m);
@@ -104,9 +105,15 @@ BENCH_CLONES void plain_lossy_step_isa(const float *u, const float *up, float *u
 {
     plain_lossy_step(u, up, un, n, s, mu2, nu1, a, b);
 }
+BENCH_CLONES void plain_lossy_step_isa(const double *u, const double *up, double *un, int n, std::ptrdiff_t s,
+                                       double mu2, double nu1, double a, double b)
+{
+    plain_lossy_step(u, up, un, n, s, mu2, nu1, a, b);
+}
 
 // Clamped: w = 0 on the boundary, the ghost beyond it the mirror of the first interior node.
-void clamp_ghosts(float *u, int n, std::ptrdiff_t s)
+template <typename T>
+void clamp_ghosts(T *u, int n, std::ptrdiff_t s)
 {
     for (int k = 2; k <= n + 2; ++k) {
         u[k * s + 1] = u[k * s + 3];
@@ -116,7 +123,8 @@ void clamp_ghosts(float *u, int n, std::ptrdiff_t s)
     }
 }
 
-double run_plain(const Job &job, double k, double &checksum)
+template <typename T>
+double run_plain_as(const Job &job, double k, double &checksum)
 {
     const auto t0 = std::chrono::steady_clock::now();
     const PlateParams p = fig7_plate();
@@ -125,16 +133,16 @@ double run_plain(const Job &job, double k, double &checksum)
     const double kappa = std::sqrt(p.material.youngs_pa * p.thickness_m * p.thickness_m /
                                    (12 * p.material.density_kg_m3 * (1 - p.material.poisson * p.material.poisson)));
     const double d = 1 / (1 + p.loss.sigma0 * k);
-    const auto mu2 = float(kappa * kappa * k * k / (h * h * h * h));
-    const auto nu1 = float(2 * p.loss.sigma1 * k / (h * h));
-    const auto a = float(d), b = float(d * (1 - p.loss.sigma0 * k));
+    const auto mu2 = T(kappa * kappa * k * k / (h * h * h * h));
+    const auto nu1 = T(2 * p.loss.sigma1 * k / (h * h));
+    const auto a = T(d), b = T(d * (1 - p.loss.sigma0 * k));
     const std::ptrdiff_t s = (n + 5 + 15) / 16 * 16;
     const std::size_t level = std::size_t(s) * std::size_t(n + 5);
-    std::vector<float> mem(3 * level, 0.0f);
-    float *up = mem.data(), *u = up + level, *un = u + level;
+    std::vector<T> mem(3 * level, T(0));
+    T *up = mem.data(), *u = up + level, *un = u + level;
     const std::ptrdiff_t src = std::ptrdiff_t(std::lround(0.41 * n) + 2) * s + std::lround(0.3 * n) + 2;
     const std::ptrdiff_t rec = std::ptrdiff_t(std::lround(0.55 * n) + 2) * s + std::lround(0.62 * n) + 2;
-    const auto kick = float(k * k / (p.material.density_kg_m3 * p.thickness_m * h * h) / k);
+    const auto kick = T(k * k / (p.material.density_kg_m3 * p.thickness_m * h * h) / k);
     std::vector<double> trace;
     trace.reserve(job.steps);
     for (std::size_t t = 0; t < job.steps; ++t) {
@@ -143,7 +151,7 @@ double run_plain(const Job &job, double k, double &checksum)
             un[src] += kick;
         clamp_ghosts(un, n, s);
         trace.push_back(un[rec]);
-        float *old = up;
+        T *old = up;
         up = u;
         u = un;
         un = old;
@@ -152,9 +160,14 @@ double run_plain(const Job &job, double k, double &checksum)
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+double run_plain(const Job &job, double k, double &checksum)
+{
+    return job.f64 ? run_plain_as<double>(job, k, checksum) : run_plain_as<float>(job, k, checksum);
+}
+
 void BM_SimulateEndToEnd(benchmark::State &state)
 {
-    const Job job{int(state.range(0)), std::size_t(state.range(1)), int(state.range(2))};
+    const Job job{int(state.range(0)), std::size_t(state.range(1)), int(state.range(2)), state.range(3) != 0};
     double setup = 0, sum = 0, best_ours = 1e300, best_plain = 1e300, best_setup = 0;
     const double k = [&] {
         auto op = std::make_shared<PlateOperator>(fig7_plate(), Grid{job.n, job.n, side_m / job.n});
@@ -228,14 +241,17 @@ BENCHMARK(BM_SimulateLanes)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-// n, steps, threads. 81: Fig. 7's grid and a calibration's simulation length;
-// 330: the plate at f_max 12 kHz; 1024: a large grid, fewer steps.
+// n, steps, threads, double. 81: Fig. 7's grid and a calibration's simulation
+// length; 330: the plate at f_max 12 kHz; 1024: a large grid, fewer steps.
 BENCHMARK(BM_SimulateEndToEnd)
-    ->Args({81, 14300, 1})
-    ->Args({330, 4000, 1})
-    ->Args({330, 4000, 2})
-    ->Args({1024, 400, 1})
-    ->Args({1024, 400, 2})
+    ->Args({81, 14300, 1, 0})
+    ->Args({330, 4000, 1, 0})
+    ->Args({330, 4000, 2, 0})
+    ->Args({1024, 400, 1, 0})
+    ->Args({1024, 400, 2, 0})
+    ->Args({81, 14300, 1, 1})
+    ->Args({330, 4000, 1, 1})
+    ->Args({1024, 400, 1, 1})
     ->Iterations(3)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();

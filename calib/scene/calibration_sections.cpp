@@ -268,6 +268,12 @@ pipeline::CalibrationSpec parse_calibration(const Fields &f)
     c.method = one_of<pipeline::DriveMethod>(f, "method", c.method,
                                              {{"time_reversal", pipeline::DriveMethod::time_reversal},
                                               {"inverse_filter", pipeline::DriveMethod::inverse_filter}});
+    c.exciter_gains = one_of<pipeline::ExciterGainsMode>(
+        f, "exciter_gains", c.exciter_gains,
+        {{"minimax", pipeline::ExciterGainsMode::minimax}, {"equal", pipeline::ExciterGainsMode::equal}});
+    if (f.has("exciter_gains") && c.method != pipeline::DriveMethod::time_reversal)
+        f.fail("exciter_gains", "needs method = \"time_reversal\" (the inverse filter designs every exciter's "
+                                "drive, its level included)");
     if (auto v = f.positive("lead_time_s"))
         c.lead_time_s = *v;
     c.regularization = non_negative(f, "regularization", c.regularization);

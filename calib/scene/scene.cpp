@@ -194,8 +194,8 @@ void parse_calibration_section(const toml::table &t, Scene &scene)
 {
     const Fields f(t, scene.file, "calibration",
                    {"window_s", "truncate_fraction", "output_rate_hz", "sample_format", "threshold_m", "dither",
-                    "accuracy", "verify_tail_s", "method", "lead_time_s", "regularization", "active_damping_s",
-                    "robust"});
+                    "accuracy", "verify_tail_s", "method", "exciter_gains", "lead_time_s", "regularization",
+                    "active_damping_s", "robust"});
     scene.calibration = parse_calibration(f);
     if (f.has("robust")) // with either method (pipeline/robustness/robust_design.h)
         scene.robust = parse_robust(f);

@@ -259,7 +259,11 @@ TEST(ContrastMap, EachSampleTakesItsNearestFocusValue)
 
 TEST(DenseCalibration, PitchGridOfMoreFociThanTheSubsetEndToEnd)
 {
-    const pipeline::CalibrationInput in = scene::calibration_input(dense_scene(), "dense.toml");
+    // The seed's time reversal (equal gains): with minimax gains the search
+    // here settles on a placement whose weakest focus cannot reach 10 um
+    // at full scale with the small scene's 0.5 N exciters.
+    pipeline::CalibrationInput in = scene::calibration_input(dense_scene(), "dense.toml");
+    in.calibration.exciter_gains = pipeline::ExciterGainsMode::equal;
     const std::size_t K = in.foci.points.size();
     ASSERT_EQ(K, 25u);
     // Count the placement simulations as they run (the progress's count of

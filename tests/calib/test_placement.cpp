@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -204,10 +205,13 @@ TEST(ContrastModel, MatchesDirectCorrelationSum)
     EXPECT_THROW(ContrastModel({r[0]}, 1, keep), std::invalid_argument); // nothing to contrast against
 }
 
-// The one-pass exchange the annealer uses gives the floats of the two adds
-// it replaces (so a seed gives the same placement), and its score is the
-// evaluation of that state; a long chain of swaps and undos stays identical.
-TEST(ContrastModel, OnePassSwapEqualsTwoAddsBitForBit)
+// The annealer's trial of an exchange scores the state two adds would make,
+// without touching the sums; its commit makes the floats of those two adds
+// (so a seed gives the same placement); a long chain of commits and rejected
+// trials stays identical to adds on a copy. A trial told to stop early
+// returns a bound the full score is at or below, and below the caller's
+// floor only when the full score is.
+TEST(ContrastModel, TrialAndCommitEqualTwoAddsBitForBit)
 {
     const size_t rows = 4, sites = 9, len = 80, keep = 24;
     const std::vector<std::vector<std::vector<float>>> r = random_responses(rows, sites, len, 4, 1e-3f);
@@ -220,22 +224,37 @@ TEST(ContrastModel, OnePassSwapEqualsTwoAddsBitForBit)
         plain.add(i, 1.0f);
     }
     std::uniform_int_distribution<size_t> pick(0, sites - 1), slot(0, set.size() - 1);
+    auto always = [](double) { return true; };
+    size_t stopped = 0, below = 0;
     for (int step = 0; step < 200; step++) {
         const size_t j = slot(rng), in = pick(rng), out = set[j];
-        const double got = fused.swap(out, in);
-        plain.add(out, -1.0f);
-        plain.add(in, 1.0f);
-        const ContrastModel::Score want = plain.evaluate();
+        const double got = fused.trial(out, in, always);
+        ContrastModel::State moved = plain;
+        moved.add(out, -1.0f);
+        moved.add(in, 1.0f);
+        const ContrastModel::Score want = moved.evaluate();
         ASSERT_EQ(got, want.worst_db) << "step " << step;
-        if (step % 3 == 0) { // rejected: back to the set before
-            fused.undo(in, out);
-            plain.add(in, -1.0f);
-            plain.add(out, 1.0f);
-        } else {
-            set[j] = in;
-        }
+        // Early stop at a floor between the foci's scores.
+        std::vector<double> per = want.per_focus_db;
+        std::sort(per.begin(), per.end());
+        const double never = fused.trial(out, in, [](double) { return false; });
+        ASSERT_GE(never, want.worst_db);
+        ASSERT_TRUE(std::find(per.begin(), per.end(), never) != per.end());
+        below += never > want.worst_db;
+        const double floor = (per[0] + per[1]) / 2;
+        size_t calls = 0;
+        const double bound = fused.trial(out, in, [&](double x) { return ++calls, x >= floor; });
+        ASSERT_GE(bound, want.worst_db);
+        ASSERT_LT(bound, floor);
+        stopped += calls < per.size();
+        if (step % 3 == 0)
+            continue; // rejected: the sums stay as they were
+        fused.commit(out, in);
+        plain = moved;
+        set[j] = in;
     }
-    EXPECT_EQ(fused.evaluate().worst_db, plain.evaluate().worst_db);
+    EXPECT_GT(stopped, 0u); // the floor stopped some trials before their last focus
+    EXPECT_GT(below, 0u);   // and a one-focus bound is not always the worst
     const ContrastModel::Score a = fused.evaluate(), b = plain.evaluate();
     for (size_t f = 0; f < a.per_focus_db.size(); f++)
         EXPECT_EQ(a.per_focus_db[f], b.per_focus_db[f]);

@@ -117,6 +117,31 @@ TEST(Transfer, ConvolutionEqualsForwardSimulationAtTheSimulationRate)
         peak = std::max(peak, std::abs(double(conv[0][n])));
     }
     EXPECT_GT(moved, 0.05 * peak);
+
+    // Each exciter's part alone (channel_fields, what time reversal's gains
+    // are judged on): the parts of the drive without exciter 1 equal the
+    // forward run of that drive, and every drive's parts add up to its field.
+    const auto parts = pb.channel_fields(one, {0, 1});
+    ASSERT_EQ(parts.size(), ex.size());
+    double part_diff = 0, part_peak = 0;
+    for (std::size_t n = 0; n < out; n++) {
+        double sum_one = 0;
+        for (std::size_t c = 0; c < ex.size(); c++)
+            sum_one += parts[c][0][n];
+        part_diff = std::max(part_diff, std::abs(sim_one[0][n] - sum_one));
+        part_peak = std::max(part_peak, std::abs(sim_one[0][n]));
+        EXPECT_EQ(parts[1][0][n], 0.0f); // exciter 1 plays nothing
+    }
+    EXPECT_LT(part_diff, 2e-5 * part_peak);
+    const auto whole = pb.field(a);
+    const auto split = pb.channel_fields(a, {0, 1});
+    for (std::size_t g = 0; g < 2; g++)
+        for (std::size_t n = 0; n < out; n++) {
+            double sum_a = 0;
+            for (std::size_t c = 0; c < ex.size(); c++)
+                sum_a += split[c][g][n];
+            ASSERT_NEAR(sum_a, whole[g][n], 2e-5 * peak) << "point " << g << " sample " << n;
+        }
 }
 
 TEST(Transfer, DecimatedBandLimitedMatrixMatchesForwardSimulationWithinTolerance)

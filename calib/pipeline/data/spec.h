@@ -66,6 +66,10 @@ struct FociSpec {
 // (docs/scene-format.md): time reversal (the seed's, the matched filter) or a
 // regularised least-squares inverse filter (pipeline/design/inverse_filter.h).
 enum class DriveMethod { time_reversal, inverse_filter };
+// [calibration] exciter_gains (time reversal): each exciter's level per focus
+// chosen for the whole-area verdict (design/exciter_gains.h), or all equal
+// (the seed's time reversal).
+enum class ExciterGainsMode { minimax, equal };
 
 // [calibration]
 struct CalibrationSpec {
@@ -78,6 +82,7 @@ struct CalibrationSpec {
     std::optional<double> accuracy; // target relative phase-velocity error (docs/ACCURACY.md)
     double verify_tail_s = 0.1;     // verification runs this long after the drive ends
     DriveMethod method = DriveMethod::time_reversal;
+    ExciterGainsMode exciter_gains = ExciterGainsMode::minimax;
     // Playback start to the focal peak (s); unset: where time reversal puts it
     // with the kept window truncate_fraction x window_s (pipeline/data/lead_time.h).
     std::optional<double> lead_time_s;

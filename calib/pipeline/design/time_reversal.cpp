@@ -1,11 +1,15 @@
 #include "pipeline/design/time_reversal.h"
 
 #include "pipeline/data/lead_time.h"
+#include "pipeline/design/exciter_gains.h"
 #include "pipeline/signal/first_failure.h"
 #include "pipeline/signal/pulse.h"
+#include "pipeline/signal/resample.h"
+#include "pipeline/transfer/playback.h"
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -39,6 +43,121 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &rec, dou
                                 static_cast<double>(keep - 1) / sim_rate_hz - pulse_duration_s / 2, o);
 }
 
+namespace {
+
+// The points the gains are judged on: the foci, then the lattice points in
+// the active area (the verdict's), as indices into H.points.
+struct GainJudge {
+    std::vector<std::size_t> served;
+    std::unique_ptr<Playback> playback;
+};
+
+GainJudge gain_judge(const CalibrationInput &in, const TransferMatrix &H, std::size_t keep)
+{
+    GainJudge j;
+    for (std::size_t f = 0; f < in.foci.points.size(); f++)
+        j.served.push_back(H.exact_begin() + f);
+    for (std::size_t n = 0; n < H.lattice.size(); n++)
+        if (in.active.area.contains(H.lattice.at(n)))
+            j.served.push_back(n);
+    // As the verification plays a drive: its length and the tail after it.
+    const auto tail = static_cast<std::size_t>(std::ceil(in.calibration.verify_tail_s * H.rate_hz));
+    // (The finished drive, back at H's rate, may run a few samples longer.)
+    j.playback = std::make_unique<Playback>(H, j.served, keep + 16, keep + tail);
+    return j;
+}
+
+// Focus f's gains (exciter_gains.h) for the recordings rec[c] (kept part
+// first): each exciter's reversed recording played alone, its field at the
+// focus and at the active lattice beyond lambda/2. `equal`: the drive with
+// equal gains as finished (its channels' peaks at the device rate).
+ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, const GainJudge &judge, std::size_t f,
+                         const std::vector<std::vector<double>> &rec, std::size_t keep, const DriveSignals &equal)
+{
+    const std::size_t C = H.channels, K = in.foci.points.size();
+    std::vector<std::vector<double>> force(C, std::vector<double>(keep));
+    for (std::size_t c = 0; c < C; c++)
+        for (std::size_t i = 0; i < keep; i++)
+            force[c][i] = rec[c][keep - 1 - i];
+    const double lambda_half = judged_lambda_half_m(in);
+    std::vector<std::size_t> which{f}; // into judge.served
+    for (std::size_t s = K; s < judge.served.size(); s++)
+        if (dist(H.points[judge.served[s]], in.foci.points[f].at) > lambda_half)
+            which.push_back(s);
+    const std::vector<std::vector<std::vector<float>>> g = judge.playback->channel_fields(force, which);
+    const std::size_t T = judge.playback->output_samples();
+    // The focal instant: the equal design's peak at the focus.
+    std::size_t focal = 0;
+    double peak = -1;
+    for (std::size_t t = 0; t < T; t++) {
+        double v = 0;
+        for (std::size_t c = 0; c < C; c++)
+            v += g[c][0][t];
+        if (std::abs(v) > peak) {
+            peak = std::abs(v);
+            focal = t;
+        }
+    }
+    Eigen::VectorXd a(static_cast<Eigen::Index>(C));
+    for (std::size_t c = 0; c < C; c++)
+        a[Eigen::Index(c)] = g[c][0][focal];
+    Eigen::MatrixXf G(static_cast<Eigen::Index>(C), static_cast<Eigen::Index>((which.size() - 1) * T));
+    for (std::size_t r = 1; r < which.size(); r++)
+        for (std::size_t t = 0; t < T; t++)
+            for (std::size_t c = 0; c < C; c++)
+                G(Eigen::Index(c), Eigen::Index((r - 1) * T + t)) = g[c][r][t];
+    ExciterGains gains = minimax_gains(G, a);
+    // The exciters' force: the drive is normalised to full scale on its
+    // largest channel, so uneven gains lower the focal peak at full scale.
+    // Each channel's finishing (fades, the device rate) is linear, so the
+    // equal drive as finished, played back at full scale one exciter at a
+    // time, gives the focal peak of any gains: the sum of the parts at the
+    // focus over the largest channel's peak. The gains move from equal
+    // towards the minimax ones only as far as the scene's amplitude can
+    // still be reached (1 % kept for the dither); the largest residual of
+    // the blend is at most the blend of the two (convexity), so it never
+    // does worse than equal gains.
+    std::vector<double> channel_peak(C, 0.0);
+    std::vector<std::vector<double>> full(C);
+    for (std::size_t c = 0; c < C; c++) {
+        std::vector<double> x(equal.frames);
+        for (std::size_t n = 0; n < equal.frames; n++) {
+            x[n] = equal.normalized[n * C + c];
+            channel_peak[c] = std::max(channel_peak[c], std::abs(x[n]));
+        }
+        full[c] = resample(x, equal.rate_hz, H.rate_hz);
+        for (double &v : full[c])
+            v *= in.exciters.force_full_scale_n;
+    }
+    const std::vector<std::vector<std::vector<float>>> at_focus = judge.playback->channel_fields(full, {f});
+    const double target = 1.01 * in.pulse.amplitude_m;
+    auto reaches = [&](double s) {
+        double drive = 0, peak = 0;
+        for (std::size_t c = 0; c < C; c++)
+            drive = std::max(drive, std::abs(1 + s * (gains.gain[c] - 1)) * channel_peak[c]);
+        for (std::size_t t = 0; t < at_focus[0][0].size(); t++) {
+            double v = 0;
+            for (std::size_t c = 0; c < C; c++)
+                v += (1 + s * (gains.gain[c] - 1)) * at_focus[c][0][t];
+            peak = std::max(peak, std::abs(v));
+        }
+        return drive > 0 && peak / drive >= target;
+    };
+    if (!reaches(1)) {
+        double lo = 0, hi = 1; // reaches(lo) or lo = 0: the equal gains, as far as they go
+        for (int it = 0; it < 20; it++) {
+            const double mid = (lo + hi) / 2;
+            (reaches(mid) ? lo : hi) = mid;
+        }
+        for (double &w : gains.gain)
+            w = 1 + lo * (w - 1);
+        gains.blend = lo;
+    }
+    return gains;
+}
+
+} // namespace
+
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H)
 {
     const std::vector<double> pulse = sample_pulse(in.pulse, H.rate_hz);
@@ -53,6 +172,8 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
     // One focus per thread; each focus's dither seed is its own (dither_seed),
     // so the signals do not depend on the thread count.
     std::vector<DriveSignals> out(in.foci.points.size());
+    const bool judged = in.calibration.exciter_gains == ExciterGainsMode::minimax && H.lattice.size() > 0;
+    const GainJudge judge = judged ? gain_judge(in, H, keep) : GainJudge{};
     FirstFailure failure;
 #pragma omp parallel for schedule(dynamic)
     for (size_t f = 0; f < in.foci.points.size(); f++) {
@@ -70,6 +191,13 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
         o.truncate_fraction = kept;
         try {
             out[f] = make_drive_signals(rec, H.rate_hz, pulse_duration_s(in.pulse), o);
+            if (judged) {
+                const ExciterGains gains = focus_gains(in, H, judge, f, rec, keep, out[f]);
+                for (std::size_t c = 0; c < H.channels; c++)
+                    for (double &v : rec[c])
+                        v *= gains.gain[c];
+                out[f] = make_drive_signals(rec, H.rate_hz, pulse_duration_s(in.pulse), o);
+            }
         } catch (const std::exception &e) {
             failure.keep(f, "focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
         }

@@ -21,7 +21,11 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &recordin
 // Stage 4 of a calibration by time reversal: the drive signals of every focus
 // from H (reciprocity: H's exciter -> focus response is the focus -> exciter
 // recording), the pulse convolved in at H's rate, the kept window the scene's
-// lead time asks for (data/lead_time.h), at full scale.
+// lead time asks for (data/lead_time.h), at full scale. With [calibration]
+// exciter_gains = "minimax" (the default) and H's observation lattice, each
+// exciter's recording is scaled by the gain that holds the field beyond
+// lambda/2 in the active area lowest over the focus (exciter_gains.h), judged
+// on the lattice at every time the verification plays.
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H);
 
 } // namespace calib::pipeline

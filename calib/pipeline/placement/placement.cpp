@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <numbers>
@@ -228,12 +229,12 @@ ContrastModel::Score ContrastModel::State::evaluate(size_t rows) const
     return s;
 }
 
-template <bool Evaluate>
-double ContrastModel::State::exchange(size_t out, size_t in)
+double ContrastModel::State::trial(size_t out, size_t in, const std::function<bool(double)> &keep_going) const
 {
     const ContrastModel &m = *m_;
     double worst = std::numeric_limits<double>::infinity();
-    for (size_t f = 0; f < m.foci_; f++) {
+    for (size_t n = 0; n < m.foci_; n++) {
+        const size_t f = (lead_ + n) % m.foci_;
         double own = 0, other = 0;
         for (size_t k = 0; k < m.chunks_.size(); k++) {
             const Chunk &ch = m.chunks_[k];
@@ -241,31 +242,39 @@ double ContrastModel::State::exchange(size_t out, size_t in)
             const float *co = &ch.corr[out * block], *ci = &ch.corr[in * block];
             for (size_t r = 0; r < ch.rows; r++) {
                 const size_t g = ch.first_row + r;
+                if (g != f && !m.judged_[f * m.rows_ + g])
+                    continue;
                 const size_t at = (f * ch.rows + r) * m.lags_;
-                float *y = &y_[k][at];
-                const float *a = co + at, *b = ci + at;
+                const float *y = &y_[k][at], *a = co + at, *b = ci + at;
                 float peak = 0;
 #pragma omp simd reduction(max : peak)
-                for (size_t l = 0; l < m.lags_; l++) {
-                    const float v = (y[l] - a[l]) + b[l]; // add(out, -1), add(in, +1)
-                    y[l] = v;
-                    if constexpr (Evaluate)
-                        peak = std::max(peak, std::abs(v));
-                }
-                if (g == f)
-                    own = std::max(own, static_cast<double>(peak));
-                else if (m.judged_[f * m.rows_ + g])
-                    other = std::max(other, static_cast<double>(peak));
+                for (size_t l = 0; l < m.lags_; l++)
+                    peak = std::max(peak, std::abs((y[l] - a[l]) + b[l]));
+                (g == f ? own : other) = std::max(g == f ? own : other, static_cast<double>(peak));
             }
         }
-        if constexpr (Evaluate)
-            worst = std::min(worst, 20 * std::log10(std::max(own, 1e-300) / std::max(other, 1e-300)));
+        worst = std::min(worst, 20 * std::log10(std::max(own, 1e-300) / std::max(other, 1e-300)));
+        if (!keep_going(worst)) {
+            lead_ = f;
+            return worst;
+        }
     }
     return worst;
 }
 
-double ContrastModel::State::swap(size_t out, size_t in) { return exchange<true>(out, in); }
-void ContrastModel::State::undo(size_t out, size_t in) { (void)exchange<false>(out, in); }
+void ContrastModel::State::commit(size_t out, size_t in)
+{
+    const ContrastModel &m = *m_;
+    for (size_t k = 0; k < m.chunks_.size(); k++) {
+        const Chunk &ch = m.chunks_[k];
+        const size_t block = m.foci_ * ch.rows * m.lags_;
+        const float *a = &ch.corr[out * block], *b = &ch.corr[in * block];
+        float *y = y_[k].data();
+#pragma omp simd
+        for (size_t n = 0; n < block; n++)
+            y[n] = (y[n] - a[n]) + b[n];
+    }
+}
 
 ContrastModel::Score ContrastModel::score(const std::vector<size_t> &chosen, size_t rows) const
 {
@@ -280,8 +289,10 @@ ContrastModel::Score ContrastModel::score(const std::vector<size_t> &chosen, siz
 namespace {
 
 // Evaluator concept: double set(const std::vector<size_t>&) evaluates a new
-// set; double swap(j, site) evaluates the set with exciter j moved to site
-// and keeps it; void undo(j, old_site) reverts the last swap.
+// set; double trial(j, old_site, site, acceptable) evaluates the set with
+// exciter j moved to site (it may stop early once acceptable(a bound the
+// score can only fall below) is false, and return that bound); commit(j,
+// old_site, site) keeps the move, reject(j, old_site, site) drops it.
 // One restart: its own random stream (the seed and the restart's index), so
 // the restarts run in any order and on any number of threads with one result.
 template <class Evaluator>
@@ -342,16 +353,32 @@ SearchResult anneal_restart(const std::vector<Point> &sites, const SearchOptions
             continue;
         const size_t old = set[j];
         set[j] = cand;
-        const double next = ev.swap(j, old, cand);
+        // Metropolis: a better set always, a worse one with probability
+        // exp(difference / temperature). The uniform is drawn the first time
+        // the test meets a worse score, so the random stream is the one an
+        // evaluation of the whole score would take.
+        bool drawn = false;
+        double u = 0;
+        auto acceptable = [&](double next) {
+            if (next >= cur)
+                return true;
+            if (!drawn) {
+                u = uniform();
+                drawn = true;
+            }
+            return u < std::exp((next - cur) / temp);
+        };
+        const double next = ev.trial(j, old, cand, acceptable);
         best.evaluations++;
-        if (next >= cur || uniform() < std::exp((next - cur) / temp)) {
+        if (acceptable(next)) {
+            ev.commit(j, old, cand);
             cur = next;
             if (cur > best.objective) {
                 best.objective = cur;
                 best.chosen = set;
             }
         } else {
-            ev.undo(j, old, cand);
+            ev.reject(j, old, cand);
             set[j] = old;
         }
     }
@@ -400,12 +427,14 @@ struct FunctionEvaluator {
         chosen = s;
         return f(chosen);
     }
-    double swap(size_t j, size_t, size_t cand)
+    template <class Acceptable>
+    double trial(size_t j, size_t, size_t cand, const Acceptable &)
     {
         chosen[j] = cand;
         return f(chosen);
     }
-    void undo(size_t j, size_t old, size_t) { chosen[j] = old; }
+    void commit(size_t, size_t, size_t) {}
+    void reject(size_t j, size_t old, size_t) { chosen[j] = old; }
 };
 
 struct ContrastEvaluator {
@@ -418,8 +447,13 @@ struct ContrastEvaluator {
             st.add(i, 1.0f);
         return st.evaluate().worst_db;
     }
-    double swap(size_t, size_t old, size_t cand) { return st.swap(old, cand); }
-    void undo(size_t, size_t old, size_t cand) { st.undo(cand, old); }
+    template <class Acceptable>
+    double trial(size_t, size_t old, size_t cand, const Acceptable &acceptable)
+    {
+        return st.trial(old, cand, std::cref(acceptable));
+    }
+    void commit(size_t, size_t old, size_t cand) { st.commit(old, cand); }
+    void reject(size_t, size_t, size_t) {}
 };
 
 } // namespace

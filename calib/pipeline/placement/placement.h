@@ -87,17 +87,22 @@ class ContrastModel {
         }
         void add(size_t site, float sign);
         Score evaluate(size_t rows = SIZE_MAX) const;
-        // add(out, -1) then add(in, +1) in one pass over the sums, element by
-        // element in the same order of operations (so the same floats), and
-        // the worst_db evaluate() would then return (swap), or nothing (undo).
-        double swap(size_t out, size_t in);
-        void undo(size_t out, size_t in);
+        // The worst_db evaluate() would return with site `out` exchanged for
+        // `in`, the sums left as they are. Foci are taken one at a time and
+        // the trial stops as soon as keep_going(the worst so far) is false:
+        // the worst can only fall as foci are added, so a caller whose test
+        // is monotone in the score (the annealer's acceptance) decides on the
+        // value returned exactly as on the full one. Reads the sums and the
+        // two sites' correlations once, writes nothing.
+        double trial(size_t out, size_t in, const std::function<bool(double)> &keep_going) const;
+        // The exchange made: add(out, -1) then add(in, +1) in one pass,
+        // element by element with trial's arithmetic (so the floats trial saw).
+        void commit(size_t out, size_t in);
 
       private:
-        template <bool Evaluate>
-        double exchange(size_t out, size_t in);
         const ContrastModel *m_;
         std::vector<std::vector<float>> y_; // per chunk, [f][g][lag]
+        mutable size_t lead_ = 0;           // the focus that stopped the last trial: tried first
     };
 
   private:

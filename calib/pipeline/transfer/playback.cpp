@@ -105,8 +105,7 @@ std::vector<std::vector<float>> Playback::field(const std::vector<std::vector<do
     return field(force, all);
 }
 
-std::vector<std::vector<float>> Playback::field(const std::vector<std::vector<double>> &force,
-                                                const std::vector<std::size_t> &which) const
+std::vector<std::complex<float>> Playback::drive_spectra(const std::vector<std::vector<double>> &force) const
 {
     const std::size_t C = H_.channels;
     if (force.size() != C)
@@ -128,6 +127,14 @@ std::vector<std::vector<float>> Playback::field(const std::vector<std::vector<do
                 F[c * bins_ + b] = {X.p[b][0], X.p[b][1]};
         }
     }
+    return F;
+}
+
+std::vector<std::vector<float>> Playback::field(const std::vector<std::vector<double>> &force,
+                                                const std::vector<std::size_t> &which) const
+{
+    const std::size_t C = H_.channels;
+    const std::vector<std::complex<float>> F = drive_spectra(force);
     std::vector<std::vector<float>> w(which.size());
     const auto scale = static_cast<float>(scale_);
 #pragma omp parallel
@@ -161,6 +168,38 @@ std::vector<std::vector<float>> Playback::field(const std::vector<std::vector<do
             for (std::size_t n = 0; n < out_; n++)
                 w[i][n] = y.p[n] * scale;
         }
+    }
+    return w;
+}
+
+std::vector<std::vector<std::vector<float>>> Playback::channel_fields(const std::vector<std::vector<double>> &force,
+                                                                      const std::vector<std::size_t> &which) const
+{
+    const std::size_t C = H_.channels;
+    const std::vector<std::complex<float>> F = drive_spectra(force);
+    std::vector<std::vector<std::vector<float>>> w(C, std::vector<std::vector<float>>(which.size()));
+    const auto scale = static_cast<float>(scale_);
+#pragma omp parallel
+    {
+        RealBuffer y(nfft_);
+        ComplexBuffer Y(bins_);
+#pragma omp for schedule(static)
+        for (std::size_t i = 0; i < which.size(); i++)
+            for (std::size_t c = 0; c < C; c++) {
+                const float *s = reinterpret_cast<const float *>(spectra_.data() + (which[i] * C + c) * bins_);
+                const float *f = reinterpret_cast<const float *>(F.data() + c * bins_);
+                float *a = reinterpret_cast<float *>(Y.p);
+#pragma omp simd
+                for (std::size_t b = 0; b < bins_; b++) {
+                    const float sr = s[2 * b], si = s[2 * b + 1], fr = f[2 * b], fi = f[2 * b + 1];
+                    a[2 * b] = sr * fr - si * fi;
+                    a[2 * b + 1] = sr * fi + si * fr;
+                }
+                fftwf_execute_dft_c2r(plans_->inverse, Y.p, y.p);
+                w[c][i].resize(out_);
+                for (std::size_t n = 0; n < out_; n++)
+                    w[c][i][n] = y.p[n] * scale;
+            }
     }
     return w;
 }

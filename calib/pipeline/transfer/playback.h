@@ -39,7 +39,13 @@ class Playback {
     std::vector<std::vector<float>> field(const std::vector<std::vector<double>> &force,
                                           const std::vector<std::size_t> &which) const;
 
+    // Each exciter's part of field(force, which) alone: w[c][i][n].
+    std::vector<std::vector<std::vector<float>>> channel_fields(const std::vector<std::vector<double>> &force,
+                                                                const std::vector<std::size_t> &which) const;
+
   private:
+    // The drive's spectra, [channel][bin] (checks the channels and lengths).
+    std::vector<std::complex<float>> drive_spectra(const std::vector<std::vector<double>> &force) const;
     struct Plans;
     const TransferMatrix &H_;
     std::vector<std::size_t> points_;
