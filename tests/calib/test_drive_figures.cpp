@@ -37,6 +37,17 @@ TEST(DriveFigures, DriveEnergyAndOutOfBandFractionOfHandComputedSignals)
     EXPECT_NEAR(d.energy_n2s, e0 + e1, 1e-3 * (e0 + e1)); // rounding to counts only
     EXPECT_NEAR(d.out_of_band_fraction, e1 / (e0 + e1), 1e-3);
     EXPECT_NEAR(d.peak_per_root_energy, 2e-6 / std::sqrt(e0 + e1), 1e-3 * 2e-6 / std::sqrt(e0 + e1));
+
+    // A prime length (4801 frames) and an even one without the tones' whole
+    // periods: the spectrum's energy is the samples' (Parseval), to round-off.
+    for (const std::size_t m : {std::size_t(4801), std::size_t(4798)}) {
+        SCOPED_TRACE("frames " + std::to_string(m));
+        std::vector<int16_t> odd(m * C);
+        for (std::size_t i = 0; i < m * C; i++)
+            odd[i] = s[i % (n * C)] ^ int16_t(i % 7);
+        const double want = pipeline::drive_energy_n2s(odd, in.exciters.force_full_scale_n, rate);
+        EXPECT_NEAR(pipeline::drive_figures(in, odd, C, rate, 2e-6).energy_n2s, want, 1e-12 * want);
+    }
 }
 
 TEST(Radiation, SmallBaffledPistonAndATone)

@@ -2,8 +2,7 @@
 
 #include "pipeline/data/input.h"
 #include "pipeline/signal/pulse.h"
-
-#include <unsupported/Eigen/FFT>
+#include "pipeline/signal/real_fft.h"
 
 #include <cmath>
 #include <complex>
@@ -28,18 +27,23 @@ DriveFigures drive_figures(const CalibrationInput &in, const std::vector<int16_t
     const std::size_t n = samples.size() / channels;
     const double edge = pulse_max_frequency_hz(in.pulse);
     const double to_n = in.exciters.force_full_scale_n / 32767.0;
-    Eigen::FFT<double> fft;
-    std::vector<double> x(n);
-    std::vector<std::complex<double>> X;
+    // FFTW at the drive's own length (any length in O(n log n): Eigen's
+    // kissfft took O(n p) for a prime factor p, seconds for a prime-length drive).
+    RealFft fft(n);
     double total = 0, above = 0;
     for (unsigned c = 0; c < channels; c++) {
+        double *x = fft.real();
         for (std::size_t i = 0; i < n; i++)
             x[i] = samples[i * channels + c] * to_n;
-        fft.fwd(X, x);
-        // Parseval: sum |x|^2 = (1/n) sum |X|^2; the bins above the edge, both signs.
-        for (std::size_t b = 0; b < n; b++) {
-            const double f = double(b <= n / 2 ? b : n - b) * rate_hz / double(n);
-            const double e = std::norm(X[b]) / double(n);
+        fft.forward();
+        const std::complex<double> *X = fft.spectrum();
+        // Parseval: sum |x|^2 = (1/n) sum over all n bins of |X|^2; bin b and
+        // bin n - b are conjugates, so each bin of the half spectrum but DC
+        // (and, n even, the Nyquist bin) stands for two.
+        for (std::size_t b = 0; b <= n / 2; b++) {
+            const double f = double(b) * rate_hz / double(n);
+            const double twice = (b == 0 || 2 * b == n) ? 1.0 : 2.0;
+            const double e = twice * std::norm(X[b]) / double(n);
             total += e;
             if (f > edge)
                 above += e;
