@@ -24,6 +24,37 @@ struct ComplexBuffer {
     ~ComplexBuffer() { fftwf_free(p); }
 };
 
+// a = s * f (Accumulate: a += s * f) over `bins` complex bins, interleaved
+// floats. The complex products written out: std::complex's operator* checks
+// its result for NaN (C99 Annex G) and so stays scalar.
+template <bool Accumulate>
+inline void multiply_spectra(const std::complex<float> *s_bins, const std::complex<float> *f_bins, float *a,
+                             std::size_t bins)
+{
+    const float *s = reinterpret_cast<const float *>(s_bins), *f = reinterpret_cast<const float *>(f_bins);
+#pragma omp simd
+    for (std::size_t b = 0; b < bins; b++) {
+        const float sr = s[2 * b], si = s[2 * b + 1], fr = f[2 * b], fi = f[2 * b + 1];
+        if constexpr (Accumulate) {
+            a[2 * b] += sr * fr - si * fi;
+            a[2 * b + 1] += sr * fi + si * fr;
+        } else {
+            a[2 * b] = sr * fr - si * fi;
+            a[2 * b + 1] = sr * fi + si * fr;
+        }
+    }
+}
+
+// The inverse transform of Y (overwritten) into y, its first `out` samples
+// scaled into w.
+void to_time(fftwf_plan inverse, fftwf_complex *Y, float *y, std::size_t out, float scale, std::vector<float> &w)
+{
+    fftwf_execute_dft_c2r(inverse, Y, y);
+    w.resize(out);
+    for (std::size_t n = 0; n < out; n++)
+        w[n] = y[n] * scale;
+}
+
 } // namespace
 
 std::size_t fft_friendly_size(std::size_t n)
@@ -146,27 +177,14 @@ std::vector<std::vector<float>> Playback::field(const std::vector<std::vector<do
         for (std::size_t i = 0; i < which.size(); i++) {
             std::fill(acc.begin(), acc.end(), std::complex<float>{});
             const auto *S = spectra_.data() + which[i] * C * bins_;
-            // The complex products written out: std::complex's operator*
-            // checks its result for NaN (C99 Annex G) and so stays scalar.
-            for (std::size_t c = 0; c < C; c++) {
-                const float *s = reinterpret_cast<const float *>(S + c * bins_);
-                const float *f = reinterpret_cast<const float *>(F.data() + c * bins_);
-                float *a = reinterpret_cast<float *>(acc.data());
-#pragma omp simd
-                for (std::size_t b = 0; b < bins_; b++) {
-                    const float sr = s[2 * b], si = s[2 * b + 1], fr = f[2 * b], fi = f[2 * b + 1];
-                    a[2 * b] += sr * fr - si * fi;
-                    a[2 * b + 1] += sr * fi + si * fr;
-                }
-            }
+            for (std::size_t c = 0; c < C; c++)
+                multiply_spectra<true>(S + c * bins_, F.data() + c * bins_, reinterpret_cast<float *>(acc.data()),
+                                       bins_);
             for (std::size_t b = 0; b < bins_; b++) {
                 Y.p[b][0] = acc[b].real();
                 Y.p[b][1] = acc[b].imag();
             }
-            fftwf_execute_dft_c2r(plans_->inverse, Y.p, y.p);
-            w[i].resize(out_);
-            for (std::size_t n = 0; n < out_; n++)
-                w[i][n] = y.p[n] * scale;
+            to_time(plans_->inverse, Y.p, y.p, out_, scale, w[i]);
         }
     }
     return w;
@@ -186,19 +204,9 @@ std::vector<std::vector<std::vector<float>>> Playback::channel_fields(const std:
 #pragma omp for schedule(static)
         for (std::size_t i = 0; i < which.size(); i++)
             for (std::size_t c = 0; c < C; c++) {
-                const float *s = reinterpret_cast<const float *>(spectra_.data() + (which[i] * C + c) * bins_);
-                const float *f = reinterpret_cast<const float *>(F.data() + c * bins_);
-                float *a = reinterpret_cast<float *>(Y.p);
-#pragma omp simd
-                for (std::size_t b = 0; b < bins_; b++) {
-                    const float sr = s[2 * b], si = s[2 * b + 1], fr = f[2 * b], fi = f[2 * b + 1];
-                    a[2 * b] = sr * fr - si * fi;
-                    a[2 * b + 1] = sr * fi + si * fr;
-                }
-                fftwf_execute_dft_c2r(plans_->inverse, Y.p, y.p);
-                w[c][i].resize(out_);
-                for (std::size_t n = 0; n < out_; n++)
-                    w[c][i][n] = y.p[n] * scale;
+                multiply_spectra<false>(spectra_.data() + (which[i] * C + c) * bins_, F.data() + c * bins_,
+                                        reinterpret_cast<float *>(Y.p), bins_);
+                to_time(plans_->inverse, Y.p, y.p, out_, scale, w[c][i]);
             }
     }
     return w;
