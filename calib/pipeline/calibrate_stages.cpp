@@ -29,7 +29,7 @@ void signals_and_verification(const CalibrationInput &in, const TransferMatrix &
     // 4. Drive signals from H: time reversal or the inverse filter.
     auto t0 = Clock::now();
     res.signals = in.calibration.method == DriveMethod::inverse_filter ? inverse_filter_signals(in, H, progress)
-                                                                       : signals_from_transfer(in, H);
+                                                                       : signals_from_transfer(in, H, progress);
     // A robust design (the same method over the ensemble of plates) replaces
     // them; the plain design stays for the comparison.
     std::vector<DriveSignals> plain;

@@ -158,7 +158,8 @@ ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, co
 
 } // namespace
 
-std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H)
+std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H,
+                                                const ProgressFn &progress)
 {
     const std::vector<double> pulse = sample_pulse(in.pulse, H.rate_hz);
     // The recording window at H's rate; only its kept part is non-zero in use,
@@ -175,6 +176,9 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
     const bool judged = in.calibration.exciter_gains == ExciterGainsMode::minimax && H.lattice.size() > 0;
     const GainJudge judge = judged ? gain_judge(in, H, keep) : GainJudge{};
     FirstFailure failure;
+    std::size_t done = 0;
+    if (judged && progress)
+        progress("signals", 0, out.size());
 #pragma omp parallel for schedule(dynamic)
     for (size_t f = 0; f < in.foci.points.size(); f++) {
         std::vector<std::vector<double>> rec(H.channels, std::vector<double>(n, 0.0));
@@ -200,6 +204,10 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
             }
         } catch (const std::exception &e) {
             failure.keep(f, "focus " + std::to_string(in.foci.points[f].id) + ": " + e.what());
+        }
+        if (judged && progress) {
+#pragma omp critical(time_reversal_progress)
+            progress("signals", ++done, out.size());
         }
     }
     failure.rethrow();

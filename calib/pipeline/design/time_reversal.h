@@ -26,6 +26,8 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &recordin
 // exciter's recording is scaled by the gain that holds the field beyond
 // lambda/2 in the active area lowest over the focus (exciter_gains.h), judged
 // on the lattice at every time the verification plays.
-std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H);
+// `progress` ("signals", foci done, foci) when the gains are judged.
+std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H,
+                                                const ProgressFn &progress = {});
 
 } // namespace calib::pipeline
