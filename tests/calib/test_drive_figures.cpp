@@ -48,6 +48,11 @@ TEST(DriveFigures, DriveEnergyAndOutOfBandFractionOfHandComputedSignals)
         const double want = pipeline::drive_energy_n2s(odd, in.exciters.force_full_scale_n, rate);
         EXPECT_NEAR(pipeline::drive_figures(in, odd, C, rate, 2e-6).energy_n2s, want, 1e-12 * want);
     }
+    // One frame: no spectrum to take, its energy all the same.
+    const std::vector<int16_t> one = {1000, -2000};
+    const pipeline::DriveFigures d1 = pipeline::drive_figures(in, one, C, rate, 2e-6);
+    EXPECT_DOUBLE_EQ(d1.energy_n2s, pipeline::drive_energy_n2s(one, in.exciters.force_full_scale_n, rate));
+    EXPECT_EQ(d1.out_of_band_fraction, 0.0);
 }
 
 TEST(Radiation, SmallBaffledPistonAndATone)

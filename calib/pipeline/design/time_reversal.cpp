@@ -49,6 +49,7 @@ namespace {
 // the active area (the verdict's), as indices into H.points.
 struct GainJudge {
     std::vector<std::size_t> served;
+    std::size_t drive_samples = 0;
     std::unique_ptr<Playback> playback;
 };
 
@@ -62,27 +63,30 @@ GainJudge gain_judge(const CalibrationInput &in, const TransferMatrix &H, std::s
             j.served.push_back(n);
     // As the verification plays a drive: its length and the tail after it.
     const auto tail = static_cast<std::size_t>(std::ceil(in.calibration.verify_tail_s * H.rate_hz));
-    // (The finished drive, back at H's rate, may run a few samples longer.)
-    j.playback = std::make_unique<Playback>(H, j.served, keep + 16, keep + tail);
+    // The finished drive, at the device rate and back at H's, may run a few
+    // samples longer (a sample of either rate, and the resampler's rounding).
+    j.drive_samples = keep + 16 + static_cast<std::size_t>(std::ceil(2 * H.rate_hz / in.calibration.output_rate_hz));
+    j.playback = std::make_unique<Playback>(H, j.served, j.drive_samples, keep + tail);
     return j;
 }
 
 // Focus f's gains (exciter_gains.h) for the recordings rec[c] (kept part
 // first): each exciter's reversed recording played alone, its field at the
-// focus and at the active lattice beyond lambda/2. `equal`: the drive with
-// equal gains as finished (its channels' peaks at the device rate).
+// focus and, beyond lambda/2 from it, at the other foci and the active
+// lattice (the verdict's two criteria). `equal`: the drive with equal gains
+// as finished (its channels' peaks at the device rate).
 ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, const GainJudge &judge, std::size_t f,
                          const std::vector<std::vector<double>> &rec, std::size_t keep, const DriveSignals &equal)
 {
-    const std::size_t C = H.channels, K = in.foci.points.size();
+    const std::size_t C = H.channels;
     std::vector<std::vector<double>> force(C, std::vector<double>(keep));
     for (std::size_t c = 0; c < C; c++)
         for (std::size_t i = 0; i < keep; i++)
             force[c][i] = rec[c][keep - 1 - i];
     const double lambda_half = judged_lambda_half_m(in);
     std::vector<std::size_t> which{f}; // into judge.served
-    for (std::size_t s = K; s < judge.served.size(); s++)
-        if (dist(H.points[judge.served[s]], in.foci.points[f].at) > lambda_half)
+    for (std::size_t s = 0; s < judge.served.size(); s++)
+        if (s != f && dist(H.points[judge.served[s]], in.foci.points[f].at) > lambda_half)
             which.push_back(s);
     const std::vector<std::vector<std::vector<float>>> g = judge.playback->channel_fields(force, which);
     const std::size_t T = judge.playback->output_samples();
@@ -114,7 +118,8 @@ ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, co
     // time, gives the focal peak of any gains: the sum of the parts at the
     // focus over the largest channel's peak. The gains move from equal
     // towards the minimax ones only as far as the scene's amplitude can
-    // still be reached (1 % kept for the dither); the largest residual of
+    // still be reached (1 % kept for the dither; where equal gains cannot
+    // reach it, as far as the focus stays as high); the largest residual of
     // the blend is at most the blend of the two (convexity), so it never
     // does worse than equal gains.
     std::vector<double> channel_peak(C, 0.0);
@@ -126,12 +131,14 @@ ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, co
             channel_peak[c] = std::max(channel_peak[c], std::abs(x[n]));
         }
         full[c] = resample(x, equal.rate_hz, H.rate_hz);
+        if (full[c].size() > judge.drive_samples)
+            full[c].resize(judge.drive_samples);
         for (double &v : full[c])
             v *= in.exciters.force_full_scale_n;
     }
     const std::vector<std::vector<std::vector<float>>> at_focus = judge.playback->channel_fields(full, {f});
-    const double target = 1.01 * in.pulse.amplitude_m;
-    auto reaches = [&](double s) {
+    // The focal peak at full scale of the blend s (0: equal gains).
+    auto full_scale_peak = [&](double s) {
         double drive = 0, peak = 0;
         for (std::size_t c = 0; c < C; c++)
             drive = std::max(drive, std::abs(1 + s * (gains.gain[c] - 1)) * channel_peak[c]);
@@ -141,8 +148,12 @@ ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, co
                 v += (1 + s * (gains.gain[c] - 1)) * at_focus[c][0][t];
             peak = std::max(peak, std::abs(v));
         }
-        return drive > 0 && peak / drive >= target;
+        return drive > 0 ? peak / drive : 0.0;
     };
+    // Where equal gains fall short of the amplitude themselves, the gains
+    // may not fall shorter.
+    const double target = std::min(1.01 * in.pulse.amplitude_m, full_scale_peak(0));
+    auto reaches = [&](double s) { return full_scale_peak(s) >= target; };
     if (!reaches(1)) {
         double lo = 0, hi = 1; // reaches(lo) or lo = 0: the equal gains, as far as they go
         for (int it = 0; it < 20; it++) {
@@ -159,8 +170,13 @@ ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, co
 } // namespace
 
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H,
-                                                const ProgressFn &progress)
+                                                const ProgressFn &progress, const TransferMatrix *judged_on)
 {
+    const TransferMatrix &J = judged_on ? *judged_on : H;
+    if (J.channels != H.channels || J.rate_hz != H.rate_hz ||
+        J.point_count() - J.exact_begin() != H.point_count() - H.exact_begin())
+        throw std::logic_error(
+            "time reversal: the gains' transfer matrix differs from the design's in its exciters, rate or foci");
     const std::vector<double> pulse = sample_pulse(in.pulse, H.rate_hz);
     // The recording window at H's rate; only its kept part is non-zero in use,
     // and H covers it (transfer_options: the kept window and the tail).
@@ -173,8 +189,8 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
     // One focus per thread; each focus's dither seed is its own (dither_seed),
     // so the signals do not depend on the thread count.
     std::vector<DriveSignals> out(in.foci.points.size());
-    const bool judged = in.calibration.exciter_gains == ExciterGainsMode::minimax && H.lattice.size() > 0;
-    const GainJudge judge = judged ? gain_judge(in, H, keep) : GainJudge{};
+    const bool judged = in.calibration.exciter_gains == ExciterGainsMode::minimax && J.lattice.size() > 0;
+    const GainJudge judge = judged ? gain_judge(in, J, keep) : GainJudge{};
     FirstFailure failure;
     std::size_t done = 0;
     if (judged && progress)
@@ -196,7 +212,7 @@ std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, cons
         try {
             out[f] = make_drive_signals(rec, H.rate_hz, pulse_duration_s(in.pulse), o);
             if (judged) {
-                const ExciterGains gains = focus_gains(in, H, judge, f, rec, keep, out[f]);
+                const ExciterGains gains = focus_gains(in, J, judge, f, rec, keep, out[f]);
                 for (std::size_t c = 0; c < H.channels; c++)
                     for (double &v : rec[c])
                         v *= gains.gain[c];

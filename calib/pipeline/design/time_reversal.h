@@ -27,7 +27,11 @@ DriveSignals make_drive_signals(const std::vector<std::vector<double>> &recordin
 // lambda/2 in the active area lowest over the focus (exciter_gains.h), judged
 // on the lattice at every time the verification plays.
 // `progress` ("signals", foci done, foci) when the gains are judged.
+// `judged_on`: the gains judged through this matrix instead of H (the same
+// exciters, rate and foci, with the lattice H may lack: the robust design's
+// average is designed on, the nominal plate judged).
 std::vector<DriveSignals> signals_from_transfer(const CalibrationInput &in, const TransferMatrix &H,
-                                                const ProgressFn &progress = {});
+                                                const ProgressFn &progress = {},
+                                                const TransferMatrix *judged_on = nullptr);
 
 } // namespace calib::pipeline

@@ -182,7 +182,9 @@ RobustDesign robust_design(const CalibrationInput &in, const TransferMatrix &H, 
         }
         d.signals = inverse_filter_signals(in, stack);
     } else {
-        d.signals = signals_from_transfer(in, average(H, plates));
+        // Time reversal of the members' average; its exciter gains judged on
+        // the nominal plate's lattice (the average keeps the foci only).
+        d.signals = signals_from_transfer(in, average(H, plates), {}, &H);
     }
     if (spec.margin_level) {
         // Full-scale playback on every plate: the weakest focal peak P and the

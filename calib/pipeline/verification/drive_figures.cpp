@@ -27,6 +27,11 @@ DriveFigures drive_figures(const CalibrationInput &in, const std::vector<int16_t
     const std::size_t n = samples.size() / channels;
     const double edge = pulse_max_frequency_hz(in.pulse);
     const double to_n = in.exciters.force_full_scale_n / 32767.0;
+    if (n < 2) { // one frame: all of it at DC
+        d.energy_n2s = drive_energy_n2s(samples, in.exciters.force_full_scale_n, rate_hz);
+        d.peak_per_root_energy = d.energy_n2s > 0 ? peak_m / std::sqrt(d.energy_n2s) : 0.0;
+        return d;
+    }
     // FFTW at the drive's own length (any length in O(n log n): Eigen's
     // kissfft took O(n p) for a prime factor p, seconds for a prime-length drive).
     RealFft fft(n);
