@@ -97,6 +97,8 @@ TEST(ExciterGains, CalibrationKeepsTheAmplitudeAndNeverLosesWholeAreaContrast)
         ASSERT_TRUE(a.whole_area && b.whole_area);
         // Judged on the lattice's samples; the verdict refines between them.
         EXPECT_GE(a.whole_area_contrast_db, b.whole_area_contrast_db - 0.2);
+        // And on the other foci beyond lambda/2 (the verdict's second criterion).
+        EXPECT_LE(a.max_other_foci_m, b.max_other_foci_m * 1.001) << "other foci";
         gained = std::max(gained, a.whole_area_contrast_db - b.whole_area_contrast_db);
     }
     EXPECT_GT(gained, 0.5); // not vacuous: some focus gains
