@@ -18,7 +18,7 @@ Eigen::VectorXf residuals(const Eigen::MatrixXf &G, const Eigen::VectorXd &w)
 // focal whose largest residual over those columns is least among the
 // iterates (the first iterate is the unweighted least-squares solution).
 Eigen::VectorXd lawson(const Eigen::MatrixXf &G, const Eigen::VectorXd &a, double focal, std::vector<Eigen::Index> rows,
-                       unsigned iterations, unsigned &taken)
+                       unsigned iterations)
 {
     const Eigen::Index C = a.size();
     std::vector<double> q(rows.size(), 1.0 / double(rows.size()));
@@ -44,7 +44,6 @@ Eigen::VectorXd lawson(const Eigen::MatrixXf &G, const Eigen::VectorXd &a, doubl
         if (!std::isfinite(at) || at == 0)
             break;
         w *= focal / at;
-        taken++;
         const Eigen::VectorXf wf = w.cast<float>();
         double sum = 0, top = 0, worst = 0;
         for (std::size_t k = 0; k < rows.size(); k++) {
@@ -110,7 +109,7 @@ ExciterGains minimax_gains(const Eigen::MatrixXf &G, const Eigen::VectorXd &a, u
     };
     admit(0.5 * best_max);
     for (int round = 0; round < 8; round++) {
-        const Eigen::VectorXd w = lawson(G, a, focal, rows, iterations, out.iterations);
+        const Eigen::VectorXd w = lawson(G, a, focal, rows, iterations);
         if (w.size() != C)
             break;
         r = residuals(G, w);

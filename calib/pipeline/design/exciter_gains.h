@@ -36,8 +36,6 @@ struct ExciterGains {
     std::vector<double> gain; // per exciter, a . gain = a . 1 (the equal design's focal value)
     double equal_ratio = 0;   // max_i |G_i . 1| / (a . 1): the equal gains' largest ghost over the focus
     double ratio = 0;         // the same for `gain` (<= equal_ratio)
-    unsigned iterations = 0;  // Lawson steps taken
-    double blend = 1;         // how far from equal (0) to the minimax gains (1) the exciters' force allowed
 };
 
 // G: one column per row of the problem (exciters x rows, contiguous per row);

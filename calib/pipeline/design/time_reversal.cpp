@@ -4,7 +4,6 @@
 #include "pipeline/design/exciter_gains.h"
 #include "pipeline/signal/first_failure.h"
 #include "pipeline/signal/pulse.h"
-#include "pipeline/signal/resample.h"
 #include "pipeline/transfer/playback.h"
 
 #include <algorithm>
@@ -115,7 +114,8 @@ ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, co
     // largest channel, so uneven gains lower the focal peak at full scale.
     // Each channel's finishing (fades, the device rate) is linear, so the
     // equal drive as finished, played back at full scale one exciter at a
-    // time, gives the focal peak of any gains: the sum of the parts at the
+    // time as every stored drive is played (drive_forces), gives the focal
+    // peak of any gains: the sum of the parts at the
     // focus over the largest channel's peak. The gains move from equal
     // towards the minimax ones only as far as the scene's amplitude can
     // still be reached (1 % kept for the dither; where equal gains cannot
@@ -123,19 +123,14 @@ ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, co
     // the blend is at most the blend of the two (convexity), so it never
     // does worse than equal gains.
     std::vector<double> channel_peak(C, 0.0);
-    std::vector<std::vector<double>> full(C);
-    for (std::size_t c = 0; c < C; c++) {
-        std::vector<double> x(equal.frames);
-        for (std::size_t n = 0; n < equal.frames; n++) {
-            x[n] = equal.normalized[n * C + c];
-            channel_peak[c] = std::max(channel_peak[c], std::abs(x[n]));
-        }
-        full[c] = resample(x, equal.rate_hz, H.rate_hz);
-        if (full[c].size() > judge.drive_samples)
-            full[c].resize(judge.drive_samples);
-        for (double &v : full[c])
-            v *= in.exciters.force_full_scale_n;
-    }
+    const std::vector<float> frames(equal.normalized.begin(), equal.normalized.end());
+    for (std::size_t n = 0; n < equal.frames; n++)
+        for (std::size_t c = 0; c < C; c++)
+            channel_peak[c] = std::max(channel_peak[c], std::abs(equal.normalized[n * C + c]));
+    std::vector<std::vector<double>> full = drive_forces(in, H, frames, unsigned(C), equal.rate_hz);
+    for (std::vector<double> &f_c : full)
+        if (f_c.size() > judge.drive_samples)
+            f_c.resize(judge.drive_samples);
     const std::vector<std::vector<std::vector<float>>> at_focus = judge.playback->channel_fields(full, {f});
     // The focal peak at full scale of the blend s (0: equal gains).
     auto full_scale_peak = [&](double s) {
@@ -162,7 +157,6 @@ ExciterGains focus_gains(const CalibrationInput &in, const TransferMatrix &H, co
         }
         for (double &w : gains.gain)
             w = 1 + lo * (w - 1);
-        gains.blend = lo;
     }
     return gains;
 }

@@ -1,5 +1,7 @@
 #include "pipeline/transfer/playback.h"
+#include "engine/effects/exciter.h"
 #include "pipeline/signal/real_fft.h"
+#include "pipeline/signal/resample.h"
 
 #include <fftw3.h>
 
@@ -210,6 +212,24 @@ std::vector<std::vector<std::vector<float>>> Playback::channel_fields(const std:
             }
     }
     return w;
+}
+
+std::vector<std::vector<double>> drive_forces(const CalibrationInput &in, const TransferMatrix &H,
+                                              const std::vector<float> &frames, unsigned channels, double rate_hz)
+{
+    const size_t n = frames.size() / channels;
+    std::vector<std::vector<double>> force(channels);
+    std::vector<double> ch(n);
+    for (unsigned c = 0; c < channels; c++) {
+        for (size_t i = 0; i < n; i++)
+            ch[i] = frames[i * channels + c];
+        force[c] = resample(ch, rate_hz, H.rate_hz);
+        for (double &v : force[c])
+            v *= in.exciters.force_full_scale_n;
+        if (in.effects.exciter) // the drive is Bl i; the plate gets the exciter's blocked force
+            force[c] = engine::effects::blocked_force(force[c], H.rate_hz, *in.effects.exciter);
+    }
+    return force;
 }
 
 } // namespace calib::pipeline

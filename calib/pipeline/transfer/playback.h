@@ -9,6 +9,7 @@
 // Memory: the spectra of the served points, channels x points x (nfft/2 + 1)
 // complex floats, nfft >= drive + output samples.
 #pragma once
+#include "pipeline/data/input.h"
 #include "pipeline/data/transfer_matrix.h"
 
 #include <complex>
@@ -54,6 +55,12 @@ class Playback {
     std::vector<std::complex<float>> spectra_; // [point][channel][bin]
     std::unique_ptr<Plans> plans_;
 };
+
+// Force (N) at H's rate for one drive ([n][c] at full scale 1.0, rate_hz):
+// band-limited resampling, the exciter's blocked force when the scene models it.
+// What a stored drive applies to the plate, for every playback through H.
+std::vector<std::vector<double>> drive_forces(const CalibrationInput &in, const TransferMatrix &H,
+                                              const std::vector<float> &frames, unsigned channels, double rate_hz);
 
 // FFT sizes FFTW does fast (2^a 3^b 5^c 7^d), at least n.
 std::size_t fft_friendly_size(std::size_t n);

@@ -1,9 +1,7 @@
 #include "pipeline/verification/verification.h"
 
-#include "engine/effects/exciter.h"
 #include "pipeline/signal/first_failure.h"
 #include "pipeline/signal/peaks.h"
-#include "pipeline/signal/resample.h"
 #include "pipeline/transfer/playback.h"
 #include "pipeline/transfer/transfer.h"
 
@@ -103,24 +101,6 @@ double spot_diameter(const std::vector<float> &field, int nx, int ny, double h, 
         stack.insert(stack.end(), {{i + 1, j}, {i - 1, j}, {i, j + 1}, {i, j - 1}});
     }
     return 2.0 * std::sqrt(static_cast<double>(count) * h * h / std::numbers::pi);
-}
-
-std::vector<std::vector<double>> drive_forces(const CalibrationInput &in, const TransferMatrix &H,
-                                              const std::vector<float> &frames, unsigned channels, double rate_hz)
-{
-    const size_t n = frames.size() / channels;
-    std::vector<std::vector<double>> force(channels);
-    std::vector<double> ch(n);
-    for (unsigned c = 0; c < channels; c++) {
-        for (size_t i = 0; i < n; i++)
-            ch[i] = frames[i * channels + c];
-        force[c] = resample(ch, rate_hz, H.rate_hz);
-        for (double &v : force[c])
-            v *= in.exciters.force_full_scale_n;
-        if (in.effects.exciter) // the drive is Bl i; the plate gets the exciter's blocked force
-            force[c] = engine::effects::blocked_force(force[c], H.rate_hz, *in.effects.exciter);
-    }
-    return force;
 }
 
 namespace {

@@ -10,6 +10,7 @@
 // the focus instant on the plate grid, not the whole area at all times.
 #pragma once
 #include "pipeline/data/input.h"
+#include "pipeline/transfer/playback.h" // drive_forces
 #include "pipeline/data/transfer_matrix.h"
 #include "pipeline/data/verdict.h"
 
@@ -34,11 +35,6 @@ Verification verify_signals(const CalibrationInput &in, const std::vector<Point>
 Verification verify_drive(const CalibrationInput &in, const std::vector<Point> &exciters,
                           const std::vector<float> &frames, unsigned channels, double rate_hz,
                           const ProgressFn &progress = {});
-
-// Force (N) at H's rate for one drive ([n][c] at full scale 1.0, rate_hz):
-// band-limited resampling, the exciter's blocked force when the scene models it.
-std::vector<std::vector<double>> drive_forces(const CalibrationInput &in, const TransferMatrix &H,
-                                              const std::vector<float> &frames, unsigned channels, double rate_hz);
 
 // Focal peak (m) of each focus's signals, foci only (the level pass).
 std::vector<double> focal_peaks(const CalibrationInput &in, const TransferMatrix &H,
