@@ -23,7 +23,7 @@ using io::fmt;
 
 // The fields of E sources of one plate, side by side (lanes.h). The storage
 // follows PlateEngine's: a ghost row above and below, a ghost node left and
-// right, node (0, 0) on a 64-byte line, a row stride that is no multiple of
+// right, node (1, 0) on a 64-byte line, a row stride that is no multiple of
 // 4 KiB.
 template <typename T, int E>
 class LanesEngine {
@@ -35,7 +35,8 @@ class LanesEngine {
         ny_ = g.ny;
         const std::ptrdiff_t per_line = std::ptrdiff_t(64 / sizeof(T));
         auto round_up = [&](std::ptrdiff_t n) { return (n + per_line - 1) / per_line * per_line; };
-        const std::ptrdiff_t prefix = round_up(E);
+        // Node (1, j), the bulk's first column, starts a 64-byte line (as in PlateEngine).
+        const std::ptrdiff_t prefix = round_up(2 * E) - E;
         stride_ = round_up(prefix + std::ptrdiff_t(nx_ + 2) * E);
         if (stride_ * std::ptrdiff_t(sizeof(T)) % 4096 == 0)
             stride_ += per_line;
@@ -49,7 +50,7 @@ class LanesEngine {
         u_ = storage_ + origin;
         inc_ = storage_ + level + origin;
         inc_before_ = storage_ + 2 * level + origin;
-        scratch_ = storage_ + 3 * level;
+        scratch_ = storage_ + 3 * level + prefix; // the kernel indexes its rows as the field's
 
         const Loss &loss = op.params().loss;
         lossy_ = loss.active();
@@ -61,7 +62,7 @@ class LanesEngine {
         bulk_.nu1 = T(d * 2 * loss.sigma1 * k / (h * h));
         const Edges &e = op.params().edges;
         auto sign = [](EdgeKind kind) { return kind == EdgeKind::clamped ? T(1) : T(-1); };
-        left_ = sign(e.left), right_ = sign(e.right), bottom_ = sign(e.bottom), top_ = sign(e.top);
+        bulk_.ghosts = {true, nx_, ny_, sign(e.left), sign(e.right), sign(e.bottom), sign(e.top)};
     }
     ~LanesEngine() { std::free(storage_); }
     LanesEngine(const LanesEngine &) = delete;
@@ -96,7 +97,10 @@ class LanesEngine {
 
     void step(T force)
     {
-        set_ghosts();
+        // The sweep refreshes the ghosts (plate_kernels.h); a whole pass after a force.
+        if (ghosts_stale_)
+            mirror_ghosts<T, E>(u_, stride_, bulk_.ghosts);
+        ghosts_stale_ = force != T(0);
         if (lossy_)
             bulk_update_lanes<T, true, E>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_);
         else
@@ -143,29 +147,12 @@ class LanesEngine {
         std::vector<std::ptrdiff_t> offset;
         std::vector<T> weight;
     };
-    // PlateEngine::set_ghosts, lane by lane.
-    void set_ghosts()
-    {
-        const std::ptrdiff_t s = stride_;
-        for (int j = 0; j <= ny_; ++j) {
-            T *row = u_ + j * s;
-            for (int l = 0; l < E; ++l) {
-                row[-E + l] = left_ * row[E + l];
-                row[(nx_ + 1) * E + l] = right_ * row[(nx_ - 1) * E + l];
-            }
-        }
-        for (int q = -E; q < (nx_ + 2) * E; ++q) {
-            u_[-s + q] = bottom_ * u_[s + q];
-            u_[(ny_ + 1) * s + q] = top_ * u_[(ny_ - 1) * s + q];
-        }
-    }
-
     const PlateOperator &op_;
     double k_;
     int nx_ = 0, ny_ = 0;
     std::ptrdiff_t stride_ = 0;
     bool lossy_ = false;
-    T left_ = 1, right_ = 1, bottom_ = 1, top_ = 1;
+    bool ghosts_stale_ = true;
     T *storage_ = nullptr;
     T *u_ = nullptr, *inc_ = nullptr, *inc_before_ = nullptr, *scratch_ = nullptr;
     BulkCoefficients<T> bulk_{};

@@ -67,10 +67,14 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     nx_ = g.nx;
     ny_ = g.ny;
     mirror_edges_ = mirror_edges_apply();
-    // Every row starts on a 64-byte line, one line after the row's storage
-    // begins (the ghost node at i = -1 sits at the end of that line), and
-    // ends with room for the ghost at i = nx + 1; a ghost row above and below.
+    // The bulk kernel's first column (i = 1 with ghost mirrors, 2 beside an
+    // edge band) starts a 64-byte line in every row, so its vectors of u, d
+    // and the Laplacian rows load whole lines (an unaligned 512-bit load
+    // spans two: the sweep of 81 x 81 ran 1.xx x slower so); a row's storage
+    // holds at least one node before i = 0 (the ghost at i = -1) and ends with
+    // room for the ghost at i = nx + 1; a ghost row above and below.
     const std::ptrdiff_t per_line = std::ptrdiff_t(64 / sizeof(T));
+    const std::ptrdiff_t shift = per_line - (mirror_edges_ ? 1 : 2); // node (0, j) within its row's storage
     stride_ = per_line + (std::ptrdiff_t(nx_ + 2) + per_line - 1) / per_line * per_line;
     // Not a multiple of 4 KiB: the stencil's five rows would share their L1
     // sets (and alias in the store buffer); on 997 x 997 that made a step 1.7x
@@ -89,11 +93,11 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     if (!storage_)
         throw std::bad_alloc();
     std::memset(static_cast<void *>(storage_), 0, total * sizeof(T));
-    const std::ptrdiff_t origin = stride_ + per_line; // node (0, 0)
+    const std::ptrdiff_t origin = stride_ + shift; // node (0, 0)
     u_ = storage_ + origin;
     inc_ = storage_ + level + origin;
     inc_before_ = storage_ + 2 * level + origin;
-    scratch_ = storage_ + 3 * level;
+    scratch_ = storage_ + 3 * level + shift; // the kernel indexes its rows as the field's
 
     const Loss &loss = op_->params().loss;
     lossy_ = loss.active();
@@ -104,6 +108,7 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     bulk_.g = T(d * (1 - loss.sigma0 * k_));
     bulk_.mu2 = T(d * mu2);
     bulk_.nu1 = T(d * nu1);
+    bulk_.ghosts = ghost_mirrors();
     if (!mirror_edges_)
         build_edge_rows();
     build_rigid_modes();
@@ -125,21 +130,21 @@ bool PlateEngine<T>::mirror_edges_apply() const
 }
 
 template <typename T>
-void PlateEngine<T>::set_ghosts()
+GhostMirrors<T> PlateEngine<T>::ghost_mirrors() const
 {
+    GhostMirrors<T> m;
+    if (!mirror_edges_)
+        return m;
     const Edges &e = op_->params().edges;
     auto sign = [](EdgeKind k) { return k == EdgeKind::clamped ? T(1) : T(-1); };
-    const T left = sign(e.left), right = sign(e.right), bottom = sign(e.bottom), top = sign(e.top);
-    const std::ptrdiff_t s = stride_;
-    for (int j = 0; j <= ny_; ++j) {
-        T *row = u_ + j * s;
-        row[-1] = left * row[1];
-        row[nx_ + 1] = right * row[nx_ - 1];
-    }
-    for (int i = -1; i <= nx_ + 1; ++i) {
-        u_[-s + i] = bottom * u_[s + i];
-        u_[(ny_ + 1) * s + i] = top * u_[(ny_ - 1) * s + i];
-    }
+    m.on = true;
+    m.nx = nx_;
+    m.ny = ny_;
+    m.left = sign(e.left);
+    m.right = sign(e.right);
+    m.bottom = sign(e.bottom);
+    m.top = sign(e.top);
+    return m;
 }
 
 template <typename T>
@@ -174,9 +179,11 @@ void PlateEngine<T>::add_displacement(std::ptrdiff_t offset, T delta_m)
 {
     u_[offset] += delta_m;
     inc_[offset] += delta_m;
+    const int i = int(offset % stride_), j = int(offset / stride_);
+    if (mirror_edges_ && (i <= 1 || i >= nx_ - 1 || j <= 1 || j >= ny_ - 1))
+        ghosts_stale_ = true; // a node a ghost mirrors changed after the sweep
     if (rigid_count_ == 0)
         return;
-    const int i = int(offset % stride_), j = int(offset / stride_);
     const std::ptrdiff_t u = op_->unknown_of()[op_->grid().node(i, j)];
     if (u < 0)
         return;
@@ -239,7 +246,11 @@ void PlateEngine<T>::step_impl()
     // have no band: the ghosts of u^n, and the bulk runs up to the edge.
     int margin = 2;
     if (mirror_edges_) {
-        set_ghosts();
+        // The previous sweep refreshed the ghosts (plate_kernels.h); a pass
+        // only after a change next to an edge outside it.
+        if (ghosts_stale_)
+            mirror_ghosts(u_, stride_, bulk_.ghosts);
+        ghosts_stale_ = false;
         margin = 1;
     } else {
         edge_band_update<Lossy>();
@@ -313,6 +324,7 @@ void PlateEngine<T>::set_state(const std::vector<double> &current, const std::ve
         inc_[offset_of(node)] = fixed ? T(0) : T(current[node] - previous[node]);
         inc_before_[offset_of(node)] = T(0);
     }
+    ghosts_stale_ = true;
     const auto raw = raw_moments();
     for (int c = 0; c < rigid_count_; ++c) {
         const auto &b = rigid_b_[std::size_t(c)];

@@ -161,7 +161,7 @@ class PlateEngine final : public PointField {
     void step_impl();
     // Clamped and supported edges only: ghost nodes instead of an edge band.
     bool mirror_edges_apply() const;
-    void set_ghosts(); // the ghosts of the newest u
+    GhostMirrors<T> ghost_mirrors() const; // off without mirror edges
     // Rigid-body momenta (free plates): see build_rigid_modes().
     void build_rigid_modes();
     std::array<double, 3> raw_moments() const;
@@ -180,6 +180,7 @@ class PlateEngine final : public PointField {
     std::size_t steps_ = 0;
     int bulk_threads_ = 1;
     bool mirror_edges_ = false;
+    bool ghosts_stale_ = true; // the ghosts of u^n need a pass before the next sweep
     T *storage_ = nullptr;
     T *u_ = nullptr, *inc_ = nullptr, *inc_before_ = nullptr; // u^n, d^n, d^{n-1} (before a step)
     T *scratch_ = nullptr; // the bulk kernel's rows, bulk_threads_ * bulk_scratch_rows

@@ -9,24 +9,41 @@ namespace calib::engine {
 
 namespace {
 
-// One output row j of the sweep: the Laplacian row j+1 (fresh, or read when
-// the block's prologue made it), the biharmonic from Laplacian rows j-1, j,
+// The ring holds, per row, what the sweep's second Laplacian takes:
+// lossless, the Laplacian of u, L(u); lossy, the row's share of the whole
+// right-hand side, W = nu1 d - mu2 L(u), so that d^{n+1} = g d + L(W) (the
+// loss term folded into the biharmonic's outer Laplacian: one Laplacian
+// fewer per node, and three loads of d^n's neighbours fewer). W is formed
+// from differences as before: a field constant in u and d gives L(W) = 0
+// exactly.
+template <typename T, bool Lossy>
+inline __attribute__((always_inline)) T ring_value(T lap_u, T d, const BulkCoefficients<T> &c)
+{
+    if constexpr (Lossy)
+        return c.nu1 * d - c.mu2 * lap_u;
+    else
+        return lap_u;
+}
+
+// One output row j of the sweep: the ring row j+1 (fresh, or read when the
+// block's prologue made it), the second Laplacian from ring rows j-1, j,
 // j+1, then d^{n+1} and u^{n+1} in place. u row j is read (for the Laplacian
 // of row j+1) before it is written, in the same iteration; no later iteration
 // reads it. No branches inside the i loop.
 template <typename T, bool Lossy, bool Fresh, int E>
-inline __attribute__((always_inline)) void
-output_row(T *__restrict u0, const T *__restrict u1, const T *__restrict u2, const T *__restrict lm,
-           const T *__restrict l0, T *__restrict lp, const T *__restrict dm, const T *__restrict d0,
-           const T *__restrict dp, T *__restrict dn, int i0, int i1, const BulkCoefficients<T> &c)
+inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T *__restrict u1, const T *__restrict u2,
+                                                      const T *__restrict lm, const T *__restrict l0, T *__restrict lp,
+                                                      const T *__restrict d0, const T *__restrict dp, T *__restrict dn,
+                                                      int i0, int i1, const BulkCoefficients<T> &c)
 {
-    const T g = c.g, mu2 = c.mu2, nu1 = c.nu1;
+    const T g = c.g, mu2 = c.mu2;
     if constexpr (Fresh) {
         // The two columns beyond the row (band columns: never written by the sweep).
         for (int i : {i0 - 1, i1})
             for (int q = i * E; q < (i + 1) * E; ++q) {
                 const T cc = u1[q];
-                lp[q] = ((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc));
+                lp[q] = ring_value<T, Lossy>(((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc)),
+                                             dp[q], c);
             }
     }
     // q runs over the row's nodes and, within a node, its E lanes: the
@@ -36,34 +53,36 @@ output_row(T *__restrict u0, const T *__restrict u1, const T *__restrict u2, con
         T lnext;
         if constexpr (Fresh) {
             const T cc = u1[q];
-            lnext = ((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc));
+            lnext =
+                ring_value<T, Lossy>(((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc)), dp[q], c);
             lp[q] = lnext;
         } else {
             lnext = lp[q];
         }
         const T lap2 = ((lm[q] + lnext) + (l0[q - E] + l0[q + E])) - T(4) * l0[q];
-        T v = g * d0[q] - mu2 * lap2;
-        if constexpr (Lossy) {
-            const T dc = d0[q];
-            v += nu1 * (((d0[q - E] - dc) + (d0[q + E] - dc)) + ((dm[q] - dc) + (dp[q] - dc)));
-        }
+        T v;
+        if constexpr (Lossy)
+            v = g * d0[q] + lap2;
+        else
+            v = g * d0[q] - mu2 * lap2;
         dn[q] = v;
         u0[q] += v;
     }
 }
 
-template <typename T, int E>
-inline __attribute__((always_inline)) void laplacian_row(const T *__restrict r0, const T *__restrict r1,
-                                                         const T *__restrict r2, T *__restrict out, int lo, int hi)
+template <typename T, bool Lossy, int E>
+inline __attribute__((always_inline)) void ring_row(const T *__restrict r0, const T *__restrict r1,
+                                                    const T *__restrict r2, const T *__restrict d1, T *__restrict out,
+                                                    int lo, int hi, const BulkCoefficients<T> &c)
 {
 #pragma omp simd
     for (int q = lo * E; q < hi * E; ++q) {
         const T cc = r1[q];
-        out[q] = ((r1[q - E] - cc) + (r1[q + E] - cc)) + ((r0[q] - cc) + (r2[q] - cc));
+        out[q] = ring_value<T, Lossy>(((r1[q - E] - cc) + (r1[q + E] - cc)) + ((r0[q] - cc) + (r2[q] - cc)), d1[q], c);
     }
 }
 
-// Rows [a, b) of the block. The Laplacian of u is kept for three rows (a
+// Rows [a, b) of the block. The ring row (L(u) or W) is kept for three rows (a
 // ring) plus rows b-1 and b, made in the prologue: they read u rows a-2 ..
 // a+1 and b-2 .. b+1, which the neighbouring blocks update in place in their
 // sweep, so with several threads every prologue must finish before any sweep
@@ -82,8 +101,8 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
         return;
     if (phase != BulkPhase::sweep)
         for (int row : {a - 1, a, b - 1, b})
-            laplacian_row<T, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s,
-                                laplacian_slot(scratch, s, a, b, row), i0 - 1, i1 + 1);
+            ring_row<T, Lossy, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, d + row * s,
+                                  laplacian_slot(scratch, s, a, b, row), i0 - 1, i1 + 1, c);
     if (phase == BulkPhase::prologue)
         return;
     for (int j = a; j < b; ++j) {
@@ -93,9 +112,21 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
         T *lm = laplacian_slot(scratch, s, a, b, j - 1), *l0 = laplacian_slot(scratch, s, a, b, j),
           *lp = laplacian_slot(scratch, s, a, b, j + 1);
         if (j + 1 < b - 1)
-            output_row<T, Lossy, true, E>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
+            output_row<T, Lossy, true, E>(u0, u1, u2, lm, l0, lp, d0, d0 + s, dn + j * s, i0, i1, c);
         else
-            output_row<T, Lossy, false, E>(u0, u1, u2, lm, l0, lp, d0 - s, d0, d0 + s, dn + j * s, i0, i1, c);
+            output_row<T, Lossy, false, E>(u0, u1, u2, lm, l0, lp, d0, d0 + s, dn + j * s, i0, i1, c);
+        if (const GhostMirrors<T> &m = c.ghosts; m.on) {
+            for (int l = 0; l < E; ++l) {
+                u0[-E + l] = m.left * u0[E + l];
+                u0[(m.nx + 1) * E + l] = m.right * u0[(m.nx - 1) * E + l];
+            }
+            if (j == 1)
+                for (int q = -E; q < (m.nx + 2) * E; ++q)
+                    u[-s + q] = m.bottom * u0[q];
+            if (j == m.ny - 1)
+                for (int q = -E; q < (m.nx + 2) * E; ++q)
+                    u[(m.ny + 1) * s + q] = m.top * u0[q];
+        }
     }
 }
 

@@ -29,11 +29,45 @@
 
 namespace calib::engine {
 
+// Clamped and simply supported edges as ghost mirrors (plate_engine.cpp): the
+// boundary nodes i = 0, nx and j = 0, ny stay zero and the ghost beyond each is
+// the first interior node's image, w_-1 = sign w_1 (+1 clamped, -1 supported).
+template <typename T>
+struct GhostMirrors {
+    bool on = false;
+    int nx = 0, ny = 0; // intervals; the nodes run 0 .. nx, 0 .. ny
+    T left = 0, right = 0, bottom = 0, top = 0;
+};
+
+// Every ghost of u from the nodes it mirrors (E lanes per node, lanes.h): the
+// whole pass, for a field set or changed next to an edge outside the sweep.
+template <typename T, int E = 1>
+void mirror_ghosts(T *u, std::ptrdiff_t stride, const GhostMirrors<T> &m)
+{
+    for (int j = 0; j <= m.ny; ++j) {
+        T *row = u + j * stride;
+        for (int l = 0; l < E; ++l) {
+            row[-E + l] = m.left * row[E + l];
+            row[(m.nx + 1) * E + l] = m.right * row[(m.nx - 1) * E + l];
+        }
+    }
+    for (int q = -E; q < (m.nx + 2) * E; ++q) {
+        u[-stride + q] = m.bottom * u[stride + q];
+        u[(m.ny + 1) * stride + q] = m.top * u[(m.ny - 1) * stride + q];
+    }
+}
+
 template <typename T>
 struct BulkCoefficients {
     T g;   // (1 - sigma0 k) / (1 + sigma0 k)
     T mu2; // (kappa k / h^2)^2 / (1 + sigma0 k)
     T nu1; // 2 sigma1 k / h^2 / (1 + sigma0 k) (only the lossy kernel reads it)
+    // With mirrors on, the kernel's rows and columns must be all the unknowns
+    // (i 1 .. nx-1, j 1 .. ny-1) and it refreshes the ghosts as it goes: each
+    // row's two after the row is updated, the ghost rows after rows 1 and
+    // ny - 1 (a ghost is read only before the row it mirrors is updated), so
+    // the next step finds them set without a pass of its own.
+    GhostMirrors<T> ghosts{};
 };
 
 // Rows are `stride` elements apart in all arrays (same layout). Updates rows

@@ -104,10 +104,17 @@ double ghost_against_band(const Edges &e, std::size_t steps, bool &mirrored)
     band.set_state(a, b);
     const std::size_t src = ghost.add_source(0.071, 0.093);
     band.add_source(0.071, 0.093);
+    // A second source on nodes next to the left and top edges: what it adds
+    // after the sweep moves nodes the ghosts mirror (PlateEngine refreshes them).
+    const std::size_t edge_src = ghost.add_source(0.013, 0.162);
+    band.add_source(0.013, 0.162);
     for (std::size_t n = 0; n < steps; ++n) {
         const double f = n < 40 ? std::sin(0.3 * double(n)) : 0.0;
         ghost.set_source_force(src, f);
         band.set_source_force(src, f);
+        const double fe = n >= 100 && n < 130 ? std::cos(0.2 * double(n)) : 0.0;
+        ghost.set_source_force(edge_src, fe);
+        band.set_source_force(edge_src, fe);
         ghost.step();
         band.step();
     }
