@@ -41,7 +41,8 @@ class LanesEngine {
         if (stride_ * std::ptrdiff_t(sizeof(T)) % 4096 == 0)
             stride_ += per_line;
         const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 3);
-        const std::size_t total = 3 * level + std::size_t(stride_) * bulk_scratch_rows;
+        const std::size_t total =
+            3 * level + std::size_t(stride_) * std::max(bulk_scratch_rows, bulk_pair_scratch_rows);
         storage_ = static_cast<T *>(std::aligned_alloc(64, total * sizeof(T)));
         if (!storage_)
             throw std::bad_alloc();
@@ -106,6 +107,24 @@ class LanesEngine {
         else
             bulk_update_lanes<T, false, E>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_);
         std::swap(inc_, inc_before_);
+        apply_force(force);
+    }
+    // Two steps in one sweep (bulk_update_pair): no force in the first, `force` in the second.
+    void step_pair(T force)
+    {
+        if (ghosts_stale_)
+            mirror_ghosts<T, E>(u_, stride_, bulk_.ghosts);
+        ghosts_stale_ = force != T(0);
+        if (lossy_)
+            bulk_update_pair<T, true, E>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, nullptr,
+                                         nullptr);
+        else
+            bulk_update_pair<T, false, E>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, nullptr,
+                                          nullptr);
+        apply_force(force); // inc_ holds the newest increment, as after two step()s
+    }
+    void apply_force(T force)
+    {
         if (force != T(0))
             for (std::size_t n = 0; n < src_offset_.size(); ++n) {
                 const T delta = src_weight_[n] * force;
@@ -203,9 +222,18 @@ void run_batch(const PlateOperator &op, double k, std::size_t check_interval, co
     };
     std::array<double, E> value{};
     std::size_t sample = 0;
+    auto force = [&](std::size_t n) { return n < rq.force_n.size() ? T(rq.force_n[n]) : T(0); };
+    auto record_due = [&](std::size_t n) { return n >= rq.first_step && (n - rq.first_step) % rq.interval == 0; };
+    auto scan_due = [&](std::size_t n) { return check_interval > 0 && (n + 1) % check_interval == 0; };
     for (std::size_t n = 0; n < total; ++n) {
-        eng.step(n < rq.force_n.size() ? T(rq.force_n[n]) : T(0));
-        if (n >= rq.first_step && (n - rq.first_step) % rq.interval == 0) {
+        // Two steps in one sweep where nothing is due between them.
+        if (n + 1 < total && force(n) == T(0) && !record_due(n) && !scan_due(n)) {
+            eng.step_pair(force(n + 1));
+            ++n;
+        } else {
+            eng.step(force(n));
+        }
+        if (record_due(n)) {
             for (std::size_t r = 0; r < rq.receivers.size(); ++r) {
                 eng.read(r, value);
                 for (int l = 0; l < lanes; ++l)
@@ -221,7 +249,7 @@ void run_batch(const PlateOperator &op, double k, std::size_t check_interval, co
                 }
             ++sample;
         }
-        if (check_interval > 0 && (n + 1) % check_interval == 0)
+        if (scan_due(n))
             scan(n + 1, "the whole-field scan");
     }
     scan(total, "the whole-field scan at the end of the run");

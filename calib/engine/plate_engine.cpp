@@ -87,7 +87,8 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
         bulk_threads_ = cells >= options_.parallel_min_cells ? std::max(1, threads) : 1;
     }
     const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 3);
-    const std::size_t scratch = std::size_t(stride_) * std::size_t(bulk_threads_ * bulk_scratch_rows);
+    const std::size_t scratch =
+        std::size_t(stride_) * std::size_t(std::max(bulk_threads_ * bulk_scratch_rows, bulk_pair_scratch_rows));
     const std::size_t total = 3 * level + scratch;
     storage_ = static_cast<T *>(std::aligned_alloc(64, total * sizeof(T)));
     if (!storage_)
@@ -268,17 +269,66 @@ void PlateEngine<T>::step_impl()
     std::swap(inc_, inc_before_);
     for (int c = 0; c < rigid_count_; ++c)
         rigid_expected_[std::size_t(c)] *= g;
+    apply_sources();
+    ++steps_;
+    if (rigid_count_ > 0 && steps_ % rigid_interval == 0)
+        restore_rigid_momenta();
+    for (auto &ext : extensions_)
+        ext->after_update(*this);
+}
+
+template <typename T>
+void PlateEngine<T>::apply_sources()
+{
     for (PointTap &src : sources_) {
         if (src.force == T(0))
             continue;
         for (std::size_t n = 0; n < src.offset.size(); ++n)
             add_displacement(src.offset[n], src.weight[n] * src.force);
     }
-    ++steps_;
-    if (rigid_count_ > 0 && steps_ % rigid_interval == 0)
-        restore_rigid_momenta();
-    for (auto &ext : extensions_)
-        ext->after_update(*this);
+}
+
+template <typename T>
+void PlateEngine<T>::step_pair(double *after_first)
+{
+    if (!can_pair())
+        throw std::logic_error("PlateEngine::step_pair: two steps in one sweep need ghost mirrors, one thread and "
+                               "no extension");
+    if (receiver_rows_.size() != receivers_.size()) {
+        receiver_rows_.clear();
+        for (std::size_t r = 0; r < receivers_.size(); ++r) {
+            std::ptrdiff_t last = 0;
+            for (std::ptrdiff_t o : receivers_[r].offset)
+                last = std::max(last, o / stride_);
+            receiver_rows_.emplace_back(int(last), r);
+        }
+        std::sort(receiver_rows_.begin(), receiver_rows_.end());
+    }
+    if (ghosts_stale_)
+        mirror_ghosts(u_, stride_, bulk_.ghosts);
+    ghosts_stale_ = false;
+    // Between the steps, each receiver is read once the first step has
+    // updated every row it reads (the second step is three rows behind); a
+    // receiver reads unknowns only (point_weights drops fixed nodes), rows
+    // 1 .. ny - 1, all of which the first step updates.
+    struct Reads {
+        const PlateEngine *engine;
+        double *out;
+        std::size_t next;
+    } reads{this, after_first, 0};
+    auto row_done = [](void *ctx, int row) {
+        Reads &r = *static_cast<Reads *>(ctx);
+        const auto &rows = r.engine->receiver_rows_;
+        for (; r.next < rows.size() && rows[r.next].first <= row; ++r.next)
+            r.out[rows[r.next].second] = r.engine->receiver_value(rows[r.next].second);
+    };
+    if (lossy_)
+        bulk_update_pair<T, true>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, row_done, &reads);
+    else
+        bulk_update_pair<T, false>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, row_done, &reads);
+    // inc_ holds d^{n+2}, the newest increment, as after two step()s.
+    apply_sources();
+    steps_ += 2;
 }
 
 template <typename T>

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace calib::engine {
@@ -100,6 +101,13 @@ class PlateEngine final : public PointField {
 
     // One step: u^{n+1} and d^{n+1} from u^n and d^n.
     void step();
+    // Whether step_pair() may run: ghost mirrors, one thread, no extension.
+    bool can_pair() const { return mirror_edges_ && bulk_threads_ == 1 && extensions_.empty() && rigid_count_ == 0; }
+    // Two steps in one sweep (bulk_update_pair): the first with no source
+    // force, the second with the forces set now (as step() twice with
+    // set_source_force(s, 0) before the first); after_first[r] receives
+    // receiver_value(r) of the level between them.
+    void step_pair(double *after_first);
 
     // Discrete energy (J) at time n+1/2 from the two newest levels; exactly
     // conserved without loss and sources, non-increasing with loss.
@@ -159,6 +167,9 @@ class PlateEngine final : public PointField {
     };
     template <bool Lossy>
     void step_impl();
+    void apply_sources();
+    // Receivers by the last row they read (step_pair's reads between its steps).
+    std::vector<std::pair<int, std::size_t>> receiver_rows_;
     // Clamped and supported edges only: ghost nodes instead of an edge band.
     bool mirror_edges_apply() const;
     GhostMirrors<T> ghost_mirrors() const; // off without mirror edges

@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <initializer_list>
 
@@ -82,6 +83,26 @@ inline __attribute__((always_inline)) void ring_row(const T *__restrict r0, cons
     }
 }
 
+// The ghosts that mirror row j (just updated): its two, and the ghost row
+// below (j = 1) or above (j = ny - 1) the plate (plate_kernels.h).
+template <typename T, int E>
+inline __attribute__((always_inline)) void refresh_ghosts(T *u, std::ptrdiff_t s, int j, const GhostMirrors<T> &m)
+{
+    if (!m.on)
+        return;
+    T *u0 = u + j * s;
+    for (int l = 0; l < E; ++l) {
+        u0[-E + l] = m.left * u0[E + l];
+        u0[(m.nx + 1) * E + l] = m.right * u0[(m.nx - 1) * E + l];
+    }
+    if (j == 1)
+        for (int q = -E; q < (m.nx + 2) * E; ++q)
+            u[-s + q] = m.bottom * u0[q];
+    if (j == m.ny - 1)
+        for (int q = -E; q < (m.nx + 2) * E; ++q)
+            u[(m.ny + 1) * s + q] = m.top * u0[q];
+}
+
 // Rows [a, b) of the block. The ring row (L(u) or W) is kept for three rows (a
 // ring) plus rows b-1 and b, made in the prologue: they read u rows a-2 ..
 // a+1 and b-2 .. b+1, which the neighbouring blocks update in place in their
@@ -115,17 +136,44 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
             output_row<T, Lossy, true, E>(u0, u1, u2, lm, l0, lp, d0, d0 + s, dn + j * s, i0, i1, c);
         else
             output_row<T, Lossy, false, E>(u0, u1, u2, lm, l0, lp, d0, d0 + s, dn + j * s, i0, i1, c);
-        if (const GhostMirrors<T> &m = c.ghosts; m.on) {
-            for (int l = 0; l < E; ++l) {
-                u0[-E + l] = m.left * u0[E + l];
-                u0[(m.nx + 1) * E + l] = m.right * u0[(m.nx - 1) * E + l];
-            }
-            if (j == 1)
-                for (int q = -E; q < (m.nx + 2) * E; ++q)
-                    u[-s + q] = m.bottom * u0[q];
-            if (j == m.ny - 1)
-                for (int q = -E; q < (m.nx + 2) * E; ++q)
-                    u[(m.ny + 1) * s + q] = m.top * u0[q];
+        refresh_ghosts<T, E>(u, s, j, c.ghosts);
+    }
+}
+
+// Two steps in one sweep (bulk_update_pair): both steps' rings fresh in every
+// row after their first two; the second step's row jb = t - lag reads u^{n+1}
+// rows jb .. jb + 2 and d^{n+1} rows jb .. jb + 1, which the first step wrote
+// at t - 1 and before, and writes d^{n+2} over d^n row jb, which the first
+// step last read at t - 4.
+template <typename T, bool Lossy, int E>
+inline __attribute__((always_inline)) void pair_body(T *u, T *d, T *dm, std::ptrdiff_t s, int i0, int i1, int j0,
+                                                     int j1, const BulkCoefficients<T> &c, T *scratch,
+                                                     BulkRowHook row_done, void *ctx)
+{
+    if (j1 <= j0)
+        return;
+    constexpr int lag = 3;
+    auto ring_a = [&](int row) { return scratch + (row % 3) * s; };
+    auto ring_b = [&](int row) { return scratch + (3 + row % 3) * s; };
+    for (int row : {j0 - 1, j0})
+        ring_row<T, Lossy, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, d + row * s, ring_a(row), i0 - 1,
+                              i1 + 1, c);
+    for (int t = j0; t < j1 + lag; ++t) {
+        if (const int j = t; j < j1) {
+            output_row<T, Lossy, true, E>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring_a(j - 1), ring_a(j),
+                                          ring_a(j + 1), d + j * s, d + (j + 1) * s, dm + j * s, i0, i1, c);
+            refresh_ghosts<T, E>(u, s, j, c.ghosts);
+            if (row_done)
+                row_done(ctx, j);
+            if (j == std::min(j0 + 1, j1 - 1)) // u^{n+1} rows j0 - 2 .. j0 + 1 are all there
+                for (int row : {j0 - 1, j0})
+                    ring_row<T, Lossy, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, dm + row * s, ring_b(row),
+                                          i0 - 1, i1 + 1, c);
+        }
+        if (const int j = t - lag; j >= j0) {
+            output_row<T, Lossy, true, E>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring_b(j - 1), ring_b(j),
+                                          ring_b(j + 1), dm + j * s, dm + (j + 1) * s, d + j * s, i0, i1, c);
+            refresh_ghosts<T, E>(u, s, j, c.ghosts);
         }
     }
 }
@@ -152,6 +200,24 @@ HAPTIC_BULK_VARIANT(bulk_baseline, )
 #ifdef HAPTIC_DISPATCH
 HAPTIC_BULK_VARIANT(bulk_avx512, HAPTIC_ISA_AVX512)
 HAPTIC_BULK_VARIANT(bulk_avx2, HAPTIC_ISA_AVX2)
+#endif
+
+template <typename T>
+using PairFn = void (*)(T *, T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, T *,
+                        BulkRowHook, void *);
+
+#define HAPTIC_PAIR_VARIANT(NAME, ATTR)                                                                                \
+    template <typename T, bool Lossy, int E>                                                                           \
+    ATTR void NAME(T *u, T *d, T *dm, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,  \
+                   T *scratch, BulkRowHook row_done, void *ctx)                                                        \
+    {                                                                                                                  \
+        pair_body<T, Lossy, E>(u, d, dm, s, i0, i1, j0, j1, c, scratch, row_done, ctx);                                \
+    }
+
+HAPTIC_PAIR_VARIANT(pair_baseline, )
+#ifdef HAPTIC_DISPATCH
+HAPTIC_PAIR_VARIANT(pair_avx512, HAPTIC_ISA_AVX512)
+HAPTIC_PAIR_VARIANT(pair_avx2, HAPTIC_ISA_AVX2)
 #endif
 
 int kernel_isa_level()
@@ -183,6 +249,15 @@ void bulk_update(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int 
 {
     static const BulkFn<T> fn = select_bulk<T, Lossy, 1>();
     fn(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);
+}
+
+template <typename T, bool Lossy, int E>
+void bulk_update_pair(T *u, T *d, T *dm, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
+                      T *scratch, BulkRowHook row_done, void *ctx)
+{
+    static const PairFn<T> fn =
+        HAPTIC_PICK_ISA(PairFn<T>, (pair_avx512<T, Lossy, E>), (pair_avx2<T, Lossy, E>), (pair_baseline<T, Lossy, E>));
+    fn(u, d, dm, s, i0, i1, j0, j1, c, scratch, row_done, ctx);
 }
 
 template <typename T, bool Lossy, int E>
@@ -220,7 +295,9 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
     template void bulk_update<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                           \
                                     const BulkCoefficients<T> &, T *, BulkPhase);                                      \
     template void bulk_update_threads<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                   \
-                                            const BulkCoefficients<T> &, int, T *);
+                                            const BulkCoefficients<T> &, int, T *);                                    \
+    template void bulk_update_pair<T, L, 1>(T *, T *, T *, std::ptrdiff_t, int, int, int, int,                         \
+                                            const BulkCoefficients<T> &, T *, BulkRowHook, void *);
 #define HAPTIC_LANES_INSTANCES(T, L)                                                                                   \
     template void bulk_update_lanes<T, L, 1>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
@@ -229,7 +306,13 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
     template void bulk_update_lanes<T, L, 4>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
     template void bulk_update_lanes<T, L, 8>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
-                                             const BulkCoefficients<T> &, T *);
+                                             const BulkCoefficients<T> &, T *);                                        \
+    template void bulk_update_pair<T, L, 2>(T *, T *, T *, std::ptrdiff_t, int, int, int, int,                         \
+                                            const BulkCoefficients<T> &, T *, BulkRowHook, void *);                    \
+    template void bulk_update_pair<T, L, 4>(T *, T *, T *, std::ptrdiff_t, int, int, int, int,                         \
+                                            const BulkCoefficients<T> &, T *, BulkRowHook, void *);                    \
+    template void bulk_update_pair<T, L, 8>(T *, T *, T *, std::ptrdiff_t, int, int, int, int,                         \
+                                            const BulkCoefficients<T> &, T *, BulkRowHook, void *);
 HAPTIC_LANES_INSTANCES(float, false)
 HAPTIC_LANES_INSTANCES(float, true)
 HAPTIC_LANES_INSTANCES(double, false)

@@ -177,8 +177,9 @@ void Simulation::run(std::size_t steps)
                 ftz_team.emplace();
             else
                 ftz_thread.emplace();
-            for (std::size_t n = 0; n < steps; ++n) {
-                const std::size_t now = e->steps_done();
+            // Sets every source's force for step `now`; false if all are zero.
+            auto set_forces = [&](std::size_t now) {
+                bool any = false;
                 for (std::size_t s = 0; s < signals_.size(); ++s) {
                     const std::size_t idx = now - signal_start_[s];
                     const double force = idx < signals_[s].size() ? signals_[s][idx] : 0.0;
@@ -191,13 +192,18 @@ void Simulation::run(std::size_t steps)
                              " (t = " + fmt("%.6g", double(now) * k_) + " s, sample " + std::to_string(idx) +
                              " of its signal); refused before it reached the field");
                     e->set_source_force(s, force);
+                    any |= T(force) != T(0);
                 }
-                e->step();
+                return any;
+            };
+            // The receivers of the level just computed (step `now`), then the
+            // lattice and the scan due after it.
+            auto after_step = [&](std::size_t now, auto &&receiver) {
                 for (std::size_t f = 0; f < finger_force_.size(); ++f)
                     finger_forces_[f].push_back(finger_force_[f]());
                 bool receivers_ok = true;
                 for (std::size_t r = 0; r < traces_.size(); ++r) {
-                    const double v = e->receiver_value(r);
+                    const double v = receiver(r);
                     traces_[r].push_back(v);
                     receivers_ok &= std::isfinite(v);
                 }
@@ -213,10 +219,36 @@ void Simulation::run(std::size_t steps)
                          std::to_string(now) + " (t = " + fmt("%.6g", double(now + 1) * k_) +
                          " s) from finite node values (overflow)");
                 }
-                if (lattice_stride_ > 0 && n_done_ok(e->steps_done()))
+                if (lattice_stride_ > 0 && n_done_ok(now + 1))
                     record(e);
-                if (interval > 0 && e->steps_done() % interval == 0)
+                if (interval > 0 && (now + 1) % interval == 0)
                     scan(e, "the whole-field scan");
+            };
+            // Two steps in one sweep where nothing is due between them but the
+            // receivers: no force in the first, no lattice frame or scan after it.
+            constexpr bool pairable = requires { e->step_pair(nullptr); };
+            bool pairs = false;
+            if constexpr (pairable)
+                pairs = e->can_pair() && finger_force_.empty();
+            std::vector<double> between(pairs ? traces_.size() : 0);
+            for (std::size_t n = 0; n < steps; ++n) {
+                const std::size_t now = e->steps_done();
+                const bool forced = set_forces(now);
+                if constexpr (pairable) {
+                    if (pairs && !forced && n + 1 < steps && !(lattice_stride_ > 0 && n_done_ok(now + 1)) &&
+                        !(interval > 0 && (now + 1) % interval == 0)) {
+                        set_forces(now + 1);
+                        e->step_pair(between.data());
+                        // A non-finite level between the two is caught as a
+                        // receiver's value; the scan then sees the level after them.
+                        after_step(now, [&](std::size_t r) { return between[r]; });
+                        after_step(now + 1, [&](std::size_t r) { return e->receiver_value(r); });
+                        ++n;
+                        continue;
+                    }
+                }
+                e->step();
+                after_step(now, [&](std::size_t r) { return e->receiver_value(r); });
             }
             scan(e, "the whole-field scan at the end of the run");
         },
