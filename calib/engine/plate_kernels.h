@@ -10,7 +10,9 @@
 // (u_east - u_c) + (u_west - u_c) + ...; L(L(.)) is exactly the 13-point
 // biharmonic (20, -8, 2, 1). g = (1 - sigma0 k) / (1 + sigma0 k), mu2 =
 // (kappa k / h^2)^2 and nu1 = 2 sigma1 k / h^2 scaled by 1 / (1 + sigma0 k)
-// (plate_operator.h). Algebraically this is the scheme u+ = 2u - u- - ..., with
+// (plate_operator.h). The lossy kernel evaluates it as d^{n+1} = g d^n +
+// L(W) with W = nu1 d^n - mu2 L(u^n) per node (the loss folded into the outer
+// Laplacian: equal but for round-off). Algebraically this is the scheme u+ = 2u - u- - ..., with
 // the same stability bound; in floating point it differs where it matters:
 // - the displacement u enters only through differences of neighbours, which
 //   are exact (Sterbenz) when a large rigid offset dominates, so the force a
