@@ -61,9 +61,7 @@ class LanesEngine {
         bulk_.g = T(d * (1 - loss.sigma0 * k));
         bulk_.mu2 = T(d * mu2);
         bulk_.nu1 = T(d * 2 * loss.sigma1 * k / (h * h));
-        const Edges &e = op.params().edges;
-        auto sign = [](EdgeKind kind) { return kind == EdgeKind::clamped ? T(1) : T(-1); };
-        bulk_.ghosts = {true, nx_, ny_, sign(e.left), sign(e.right), sign(e.bottom), sign(e.top)};
+        bulk_.ghosts = ghost_mirrors_of<T>(op); // lanes_apply: ghost mirrors only
     }
     ~LanesEngine() { std::free(storage_); }
     LanesEngine(const LanesEngine &) = delete;
@@ -98,10 +96,7 @@ class LanesEngine {
 
     void step(T force)
     {
-        // The sweep refreshes the ghosts (plate_kernels.h); a whole pass after a force.
-        if (ghosts_stale_)
-            mirror_ghosts<T, E>(u_, stride_, bulk_.ghosts);
-        ghosts_stale_ = force != T(0);
+        before_sweep(force);
         if (lossy_)
             bulk_update_lanes<T, true, E>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_);
         else
@@ -112,9 +107,7 @@ class LanesEngine {
     // Two steps in one sweep (bulk_update_pair): no force in the first, `force` in the second.
     void step_pair(T force)
     {
-        if (ghosts_stale_)
-            mirror_ghosts<T, E>(u_, stride_, bulk_.ghosts);
-        ghosts_stale_ = force != T(0);
+        before_sweep(force);
         if (lossy_)
             bulk_update_pair<T, true, E>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, nullptr,
                                          nullptr);
@@ -122,6 +115,14 @@ class LanesEngine {
             bulk_update_pair<T, false, E>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, nullptr,
                                           nullptr);
         apply_force(force); // inc_ holds the newest increment, as after two step()s
+    }
+    // The sweep refreshes the ghosts (plate_kernels.h); a whole pass after a
+    // sweep whose force moved nodes outside it.
+    void before_sweep(T force)
+    {
+        if (ghosts_stale_)
+            mirror_ghosts<T, E>(u_, stride_, bulk_.ghosts);
+        ghosts_stale_ = force != T(0);
     }
     void apply_force(T force)
     {

@@ -69,8 +69,8 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     mirror_edges_ = mirror_edges_apply();
     // The bulk kernel's first column (i = 1 with ghost mirrors, 2 beside an
     // edge band) starts a 64-byte line in every row, so its vectors of u, d
-    // and the Laplacian rows load whole lines (an unaligned 512-bit load
-    // spans two: the sweep of 81 x 81 ran 1.xx x slower so); a row's storage
+    // and the ring rows load whole lines (an unaligned 512-bit load spans
+    // two; docs/engine.md, "Speed"); a row's storage
     // holds at least one node before i = 0 (the ghost at i = -1) and ends with
     // room for the ghost at i = nx + 1; a ghost row above and below.
     const std::ptrdiff_t per_line = std::ptrdiff_t(64 / sizeof(T));
@@ -109,7 +109,8 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     bulk_.g = T(d * (1 - loss.sigma0 * k_));
     bulk_.mu2 = T(d * mu2);
     bulk_.nu1 = T(d * nu1);
-    bulk_.ghosts = ghost_mirrors();
+    if (mirror_edges_)
+        bulk_.ghosts = ghost_mirrors_of<T>(*op_);
     if (!mirror_edges_)
         build_edge_rows();
     build_rigid_modes();
@@ -131,21 +132,11 @@ bool PlateEngine<T>::mirror_edges_apply() const
 }
 
 template <typename T>
-GhostMirrors<T> PlateEngine<T>::ghost_mirrors() const
+void PlateEngine<T>::refresh_stale_ghosts()
 {
-    GhostMirrors<T> m;
-    if (!mirror_edges_)
-        return m;
-    const Edges &e = op_->params().edges;
-    auto sign = [](EdgeKind k) { return k == EdgeKind::clamped ? T(1) : T(-1); };
-    m.on = true;
-    m.nx = nx_;
-    m.ny = ny_;
-    m.left = sign(e.left);
-    m.right = sign(e.right);
-    m.bottom = sign(e.bottom);
-    m.top = sign(e.top);
-    return m;
+    if (ghosts_stale_)
+        mirror_ghosts(u_, stride_, bulk_.ghosts);
+    ghosts_stale_ = false;
 }
 
 template <typename T>
@@ -215,6 +206,11 @@ std::size_t PlateEngine<T>::add_receiver(double x_m, double y_m)
         tap.offset.push_back(offset_of(nw.node));
         tap.weight.push_back(T(nw.weight));
     }
+    std::ptrdiff_t last = 0; // the last row it reads
+    for (std::ptrdiff_t o : tap.offset)
+        last = std::max(last, o / stride_);
+    const std::pair<int, std::size_t> key{int(last), receivers_.size()};
+    receiver_rows_.insert(std::upper_bound(receiver_rows_.begin(), receiver_rows_.end(), key), key);
     receivers_.push_back(std::move(tap));
     return receivers_.size() - 1;
 }
@@ -249,9 +245,7 @@ void PlateEngine<T>::step_impl()
     if (mirror_edges_) {
         // The previous sweep refreshed the ghosts (plate_kernels.h); a pass
         // only after a change next to an edge outside it.
-        if (ghosts_stale_)
-            mirror_ghosts(u_, stride_, bulk_.ghosts);
-        ghosts_stale_ = false;
+        refresh_stale_ghosts();
         margin = 1;
     } else {
         edge_band_update<Lossy>();
@@ -294,19 +288,7 @@ void PlateEngine<T>::step_pair(double *after_first)
     if (!can_pair())
         throw std::logic_error("PlateEngine::step_pair: two steps in one sweep need ghost mirrors, one thread and "
                                "no extension");
-    if (receiver_rows_.size() != receivers_.size()) {
-        receiver_rows_.clear();
-        for (std::size_t r = 0; r < receivers_.size(); ++r) {
-            std::ptrdiff_t last = 0;
-            for (std::ptrdiff_t o : receivers_[r].offset)
-                last = std::max(last, o / stride_);
-            receiver_rows_.emplace_back(int(last), r);
-        }
-        std::sort(receiver_rows_.begin(), receiver_rows_.end());
-    }
-    if (ghosts_stale_)
-        mirror_ghosts(u_, stride_, bulk_.ghosts);
-    ghosts_stale_ = false;
+    refresh_stale_ghosts();
     // Between the steps, each receiver is read once the first step has
     // updated every row it reads (the second step is three rows behind); a
     // receiver reads unknowns only (point_weights drops fixed nodes), rows

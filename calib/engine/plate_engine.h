@@ -63,6 +63,19 @@ class ThreadFlushDenormals {
 // the increments d^{n+1} = u^{n+1} - u^n and d^n, and adds to u^{n+1}
 // (add_displacement(), which keeps d^{n+1} consistent). An engine without
 // extensions never calls a hook.
+// The ghost mirrors of a plate's clamped and supported edges (+1 clamped,
+// -1 supported; plate_kernels.h), for PlateEngine and the lanes; off where
+// the operator has a free edge.
+template <typename T>
+GhostMirrors<T> ghost_mirrors_of(const PlateOperator &op)
+{
+    if (!op.mirror_edges())
+        return {};
+    const Edges &e = op.params().edges;
+    auto sign = [](EdgeKind k) { return k == EdgeKind::clamped ? T(1) : T(-1); };
+    return {true, op.grid().nx, op.grid().ny, sign(e.left), sign(e.right), sign(e.bottom), sign(e.top)};
+}
+
 template <typename T>
 class PlateEngine final : public PointField {
   public:
@@ -168,11 +181,11 @@ class PlateEngine final : public PointField {
     template <bool Lossy>
     void step_impl();
     void apply_sources();
-    // Receivers by the last row they read (step_pair's reads between its steps).
+    // Receivers by the last row they read, kept sorted by add_receiver (step_pair's reads between its steps).
     std::vector<std::pair<int, std::size_t>> receiver_rows_;
     // Clamped and supported edges only: ghost nodes instead of an edge band.
     bool mirror_edges_apply() const;
-    GhostMirrors<T> ghost_mirrors() const; // off without mirror edges
+    void refresh_stale_ghosts(); // a whole pass if something outside the sweep moved a node next to an edge
     // Rigid-body momenta (free plates): see build_rigid_modes().
     void build_rigid_modes();
     std::array<double, 3> raw_moments() const;

@@ -83,26 +83,6 @@ inline __attribute__((always_inline)) void ring_row(const T *__restrict r0, cons
     }
 }
 
-// The ghosts that mirror row j (just updated): its two, and the ghost row
-// below (j = 1) or above (j = ny - 1) the plate (plate_kernels.h).
-template <typename T, int E>
-inline __attribute__((always_inline)) void refresh_ghosts(T *u, std::ptrdiff_t s, int j, const GhostMirrors<T> &m)
-{
-    if (!m.on)
-        return;
-    T *u0 = u + j * s;
-    for (int l = 0; l < E; ++l) {
-        u0[-E + l] = m.left * u0[E + l];
-        u0[(m.nx + 1) * E + l] = m.right * u0[(m.nx - 1) * E + l];
-    }
-    if (j == 1)
-        for (int q = -E; q < (m.nx + 2) * E; ++q)
-            u[-s + q] = m.bottom * u0[q];
-    if (j == m.ny - 1)
-        for (int q = -E; q < (m.nx + 2) * E; ++q)
-            u[(m.ny + 1) * s + q] = m.top * u0[q];
-}
-
 // Rows [a, b) of the block. The ring row (L(u) or W) is kept for three rows (a
 // ring) plus rows b-1 and b, made in the prologue: they read u rows a-2 ..
 // a+1 and b-2 .. b+1, which the neighbouring blocks update in place in their

@@ -41,22 +41,34 @@ struct GhostMirrors {
     T left = 0, right = 0, bottom = 0, top = 0;
 };
 
-// Every ghost of u from the nodes it mirrors (E lanes per node, lanes.h): the
-// whole pass, for a field set or changed next to an edge outside the sweep.
+// The ghosts that mirror row j of u (E lanes per node, lanes.h): its two,
+// and the ghost row below (j = 1) or above (j = ny - 1) the plate. The sweep
+// calls it for each row it has just updated.
+template <typename T, int E = 1>
+inline __attribute__((always_inline)) void refresh_ghosts(T *u, std::ptrdiff_t stride, int j, const GhostMirrors<T> &m)
+{
+    if (!m.on)
+        return;
+    T *row = u + j * stride;
+    for (int l = 0; l < E; ++l) {
+        row[-E + l] = m.left * row[E + l];
+        row[(m.nx + 1) * E + l] = m.right * row[(m.nx - 1) * E + l];
+    }
+    if (j == 1)
+        for (int q = -E; q < (m.nx + 2) * E; ++q)
+            u[-stride + q] = m.bottom * row[q];
+    if (j == m.ny - 1)
+        for (int q = -E; q < (m.nx + 2) * E; ++q)
+            u[(m.ny + 1) * stride + q] = m.top * row[q];
+}
+
+// Every ghost of u: the whole pass, for a field set or changed next to an
+// edge outside the sweep.
 template <typename T, int E = 1>
 void mirror_ghosts(T *u, std::ptrdiff_t stride, const GhostMirrors<T> &m)
 {
-    for (int j = 0; j <= m.ny; ++j) {
-        T *row = u + j * stride;
-        for (int l = 0; l < E; ++l) {
-            row[-E + l] = m.left * row[E + l];
-            row[(m.nx + 1) * E + l] = m.right * row[(m.nx - 1) * E + l];
-        }
-    }
-    for (int q = -E; q < (m.nx + 2) * E; ++q) {
-        u[-stride + q] = m.bottom * u[stride + q];
-        u[(m.ny + 1) * stride + q] = m.top * u[(m.ny - 1) * stride + q];
-    }
+    for (int j = 0; j <= m.ny; ++j)
+        refresh_ghosts<T, E>(u, stride, j, m);
 }
 
 template <typename T>
