@@ -317,9 +317,11 @@ int run_calibrate(const CalibrateArgs &a)
                              fmt("%.0f mm", p.subset_cover_m * 1e3) + " of one)"));
     {
         const pipeline::StageTimes &st = r.times;
-        progress.note("stages: placement simulations " + fmt("%.2f s", st.simulation_s) + ", search " +
-                      fmt("%.2f s", st.search_s) + ", transfer matrix " + fmt("%.2f s", st.transfer_s) + ", signals " +
-                      fmt("%.2f s", st.signals_s) + ", verification " + fmt("%.2f s", st.verification_s) +
+        progress.note("stages: placement simulations " + fmt("%.2f s", st.simulation_s) +
+                      " (of which the site recordings resampled to the search rate " +
+                      fmt("%.2f s", st.site_responses_s) + "), search " + fmt("%.2f s", st.search_s) +
+                      ", transfer matrix " + fmt("%.2f s", st.transfer_s) + ", signals " + fmt("%.2f s", st.signals_s) +
+                      ", verification " + fmt("%.2f s", st.verification_s) +
                       (st.verdict_s > 0 ? ", search by the verdict " + fmt("%.2f s", st.verdict_s) +
                                               " (the chosen placement's transfer, signals and verification included)"
                                         : std::string()));

@@ -42,7 +42,7 @@ class LanesEngine {
             stride_ += per_line;
         const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 3);
         const std::size_t total =
-            3 * level + std::size_t(stride_) * std::max(bulk_scratch_rows, bulk_pair_scratch_rows);
+            3 * level + std::size_t(stride_) * std::max(bulk_scratch_rows, bulk_block_scratch_rows);
         storage_ = static_cast<T *>(std::aligned_alloc(64, total * sizeof(T)));
         if (!storage_)
             throw std::bad_alloc();
@@ -104,17 +104,15 @@ class LanesEngine {
         std::swap(inc_, inc_before_);
         apply_force(force);
     }
-    // Two steps in one sweep (bulk_update_pair): no force in the first, `force` in the second.
-    void step_pair(T force)
+    // Several steps in one sweep (bulk_update_block): no force but `force` in the last.
+    void step_block(int steps, T force)
     {
         before_sweep(force);
         if (lossy_)
-            bulk_update_pair<T, true, E>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, nullptr,
-                                         nullptr);
+            bulk_update_block<T, true, E>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, scratch_, nullptr, nullptr);
         else
-            bulk_update_pair<T, false, E>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, nullptr,
-                                          nullptr);
-        apply_force(force); // inc_ holds the newest increment, as after two step()s
+            bulk_update_block<T, false, E>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, scratch_, nullptr, nullptr);
+        apply_force(force); // inc_ holds the newest increment, as after as many step()s
     }
     // The sweep refreshes the ghosts (plate_kernels.h); a whole pass after a
     // sweep whose force moved nodes outside it.
@@ -227,10 +225,17 @@ void run_batch(const PlateOperator &op, double k, std::size_t check_interval, co
     auto record_due = [&](std::size_t n) { return n >= rq.first_step && (n - rq.first_step) % rq.interval == 0; };
     auto scan_due = [&](std::size_t n) { return check_interval > 0 && (n + 1) % check_interval == 0; };
     for (std::size_t n = 0; n < total; ++n) {
-        // Two steps in one sweep where nothing is due between them.
-        if (n + 1 < total && force(n) == T(0) && !record_due(n) && !scan_due(n)) {
-            eng.step_pair(force(n + 1));
-            ++n;
+        // Several steps in one sweep where nothing is due between them: no
+        // force but in the last, no record or scan after any but the last.
+        std::size_t block = 1;
+        if (force(n) == T(0))
+            while (block < std::size_t(bulk_max_block_steps) && n + block < total && !record_due(n + block - 1) &&
+                   !scan_due(n + block - 1))
+                if (force(n + block++) != T(0))
+                    break;
+        if (block > 1) {
+            eng.step_block(int(block), force(n + block - 1));
+            n += block - 1;
         } else {
             eng.step(force(n));
         }

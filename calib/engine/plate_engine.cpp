@@ -88,7 +88,7 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     }
     const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 3);
     const std::size_t scratch =
-        std::size_t(stride_) * std::size_t(std::max(bulk_threads_ * bulk_scratch_rows, bulk_pair_scratch_rows));
+        std::size_t(stride_) * std::size_t(std::max(bulk_threads_ * bulk_scratch_rows, bulk_block_scratch_rows));
     const std::size_t total = 3 * level + scratch;
     storage_ = static_cast<T *>(std::aligned_alloc(64, total * sizeof(T)));
     if (!storage_)
@@ -283,34 +283,36 @@ void PlateEngine<T>::apply_sources()
 }
 
 template <typename T>
-void PlateEngine<T>::step_pair(double *after_first)
+void PlateEngine<T>::step_block(int steps, double *between)
 {
-    if (!can_pair())
-        throw std::logic_error("PlateEngine::step_pair: two steps in one sweep need ghost mirrors, one thread and "
+    if (!can_block())
+        throw std::logic_error("PlateEngine::step_block: several steps in one sweep need ghost mirrors, one thread and "
                                "no extension");
     refresh_stale_ghosts();
-    // Between the steps, each receiver is read once the first step has
-    // updated every row it reads (the second step is three rows behind); a
-    // receiver reads unknowns only (point_weights drops fixed nodes), rows
-    // 1 .. ny - 1, all of which the first step updates.
+    // Between the steps, each receiver is read once the step has updated
+    // every row it reads (the next step is two rows behind); a receiver
+    // reads unknowns only (point_weights drops fixed nodes), rows 1 .. ny - 1,
+    // all of which every step updates.
     struct Reads {
         const PlateEngine *engine;
         double *out;
-        std::size_t next;
-    } reads{this, after_first, 0};
-    auto row_done = [](void *ctx, int row) {
+        std::array<std::size_t, bulk_max_block_steps> next;
+    } reads{this, between, {}};
+    auto row_done = [](void *ctx, int level, int row) {
         Reads &r = *static_cast<Reads *>(ctx);
         const auto &rows = r.engine->receiver_rows_;
-        for (; r.next < rows.size() && rows[r.next].first <= row; ++r.next)
-            r.out[rows[r.next].second] = r.engine->receiver_value(rows[r.next].second);
+        std::size_t &next = r.next[std::size_t(level)];
+        double *out = r.out + std::size_t(level - 1) * rows.size();
+        for (; next < rows.size() && rows[next].first <= row; ++next)
+            out[rows[next].second] = r.engine->receiver_value(rows[next].second);
     };
     if (lossy_)
-        bulk_update_pair<T, true>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, row_done, &reads);
+        bulk_update_block<T, true>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, scratch_, row_done, &reads);
     else
-        bulk_update_pair<T, false>(u_, inc_, inc_before_, stride_, 1, nx_, 1, ny_, bulk_, scratch_, row_done, &reads);
-    // inc_ holds d^{n+2}, the newest increment, as after two step()s.
+        bulk_update_block<T, false>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, scratch_, row_done, &reads);
+    // inc_ holds d^{n+steps}, the newest increment, as after as many step()s.
     apply_sources();
-    steps_ += 2;
+    steps_ += std::size_t(steps);
 }
 
 template <typename T>

@@ -114,13 +114,14 @@ class PlateEngine final : public PointField {
 
     // One step: u^{n+1} and d^{n+1} from u^n and d^n.
     void step();
-    // Whether step_pair() may run: ghost mirrors, one thread, no extension.
-    bool can_pair() const { return mirror_edges_ && bulk_threads_ == 1 && extensions_.empty() && rigid_count_ == 0; }
-    // Two steps in one sweep (bulk_update_pair): the first with no source
-    // force, the second with the forces set now (as step() twice with
-    // set_source_force(s, 0) before the first); after_first[r] receives
-    // receiver_value(r) of the level between them.
-    void step_pair(double *after_first);
+    // Whether step_block() may run: ghost mirrors, one thread, no extension.
+    bool can_block() const { return mirror_edges_ && bulk_threads_ == 1 && extensions_.empty() && rigid_count_ == 0; }
+    // `steps` (2 .. bulk_max_block_steps) steps in one sweep
+    // (bulk_update_block): all but the last with no source force, the last
+    // with the forces set now (as step() `steps` times with every force 0
+    // before the last); between[(m - 1) * receivers + r] receives
+    // receiver_value(r) of the level after step m (1 .. steps - 1).
+    void step_block(int steps, double *between);
 
     // Discrete energy (J) at time n+1/2 from the two newest levels; exactly
     // conserved without loss and sources, non-increasing with loss.
@@ -181,7 +182,7 @@ class PlateEngine final : public PointField {
     template <bool Lossy>
     void step_impl();
     void apply_sources();
-    // Receivers by the last row they read, kept sorted by add_receiver (step_pair's reads between its steps).
+    // Receivers by the last row they read, kept sorted by add_receiver (step_block's reads between its steps).
     std::vector<std::pair<int, std::size_t>> receiver_rows_;
     // Clamped and supported edges only: ghost nodes instead of an edge band.
     bool mirror_edges_apply() const;

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cstddef>
 #include <initializer_list>
+#include <stdexcept>
+#include <string>
 
 namespace calib::engine {
 
@@ -120,42 +122,56 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
     }
 }
 
-// Two steps in one sweep (bulk_update_pair): both steps' rings fresh in every
-// row after their first two; the second step's row jb = t - lag reads u^{n+1}
-// rows jb .. jb + 2 and d^{n+1} rows jb .. jb + 1, which the first step wrote
-// at t - 1 and before, and writes d^{n+2} over d^n row jb, which the first
-// step last read at t - 4.
+// Several steps in one sweep (bulk_update_block). Step k (0 .. steps - 1)
+// updates row j = t - 2 k at time t, after step k - 1 has updated row t - 2 (k - 1)
+// = j + 2: it reads u^{n+k} rows j .. j + 2 (step k - 1 wrote them at t - 2 ..
+// t; step k itself, two rows behind, has not yet reached them; row j is read
+// before it is written) and the increment d^{n+k} rows j and j + 1, and
+// writes d^{n+k+1} row j. The increments between the first level and the last
+// live in rings of three rows (written at t, read at t + 1 and t + 2); the
+// last step writes d^{n+steps} over d^n row j, which the first step last read
+// at t - 2 (steps - 1). Each step's Laplacian ring starts from rows j0 - 1 and
+// j0 once the step before has updated row j0 + 1 (and the ghost row below
+// it), before the step's own first row.
 template <typename T, bool Lossy, int E>
-inline __attribute__((always_inline)) void pair_body(T *u, T *d, T *dm, std::ptrdiff_t s, int i0, int i1, int j0,
-                                                     int j1, const BulkCoefficients<T> &c, T *scratch,
-                                                     BulkRowHook row_done, void *ctx)
+inline __attribute__((always_inline)) void block_body(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
+                                                      const BulkCoefficients<T> &c, int steps, T *scratch,
+                                                      BulkRowHook row_done, void *ctx)
 {
     if (j1 <= j0)
         return;
-    constexpr int lag = 3;
-    auto ring_a = [&](int row) { return scratch + (row % 3) * s; };
-    auto ring_b = [&](int row) { return scratch + (3 + row % 3) * s; };
-    for (int row : {j0 - 1, j0})
-        ring_row<T, Lossy, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, d + row * s, ring_a(row), i0 - 1,
-                              i1 + 1, c);
-    for (int t = j0; t < j1 + lag; ++t) {
-        if (const int j = t; j < j1) {
-            output_row<T, Lossy, true, E>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring_a(j - 1), ring_a(j),
-                                          ring_a(j + 1), d + j * s, d + (j + 1) * s, dm + j * s, i0, i1, c);
+    constexpr int lag = 2, K = bulk_max_block_steps;
+    auto ring = [&](int k, int row) { return scratch + (3 * k + row % 3) * s; };
+    T *const zero = scratch + (3 * K + 3 * (K - 1)) * s; // never written
+    auto inc = [&](int k, int row) -> T * {              // d^{n+k}, row `row`
+        if (k == 0 || k == steps)
+            return d + row * s;
+        if (row < j0 || row >= j1)
+            return zero;
+        return scratch + (3 * K + 3 * (k - 1) + row % 3) * s;
+    };
+    auto start_ring = [&](int k) {
+        for (int row : {j0 - 1, j0})
+            ring_row<T, Lossy, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, inc(k, row), ring(k, row), i0 - 1,
+                                  i1 + 1, c);
+    };
+    start_ring(0);
+    const int ready = std::min(j0 + 1, j1 - 1); // u^{n+k} rows j0 - 2 .. j0 + 1 are there once this row is
+    for (int t = j0; t < j1 + lag * (steps - 1); ++t)
+        for (int k = 0; k < steps; ++k) {
+            const int j = t - lag * k;
+            if (j < j0 || j >= j1)
+                continue;
+            output_row<T, Lossy, true, E>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring(k, j - 1), ring(k, j),
+                                          ring(k, j + 1), inc(k, j), inc(k, j + 1), inc(k + 1, j), i0, i1, c);
             refresh_ghosts<T, E>(u, s, j, c.ghosts);
-            if (row_done)
-                row_done(ctx, j);
-            if (j == std::min(j0 + 1, j1 - 1)) // u^{n+1} rows j0 - 2 .. j0 + 1 are all there
-                for (int row : {j0 - 1, j0})
-                    ring_row<T, Lossy, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, dm + row * s, ring_b(row),
-                                          i0 - 1, i1 + 1, c);
+            if (k + 1 < steps) {
+                if (row_done)
+                    row_done(ctx, k + 1, j);
+                if (j == ready)
+                    start_ring(k + 1);
+            }
         }
-        if (const int j = t - lag; j >= j0) {
-            output_row<T, Lossy, true, E>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring_b(j - 1), ring_b(j),
-                                          ring_b(j + 1), dm + j * s, dm + (j + 1) * s, d + j * s, i0, i1, c);
-            refresh_ghosts<T, E>(u, s, j, c.ghosts);
-        }
-    }
 }
 
 } // namespace
@@ -183,21 +199,21 @@ HAPTIC_BULK_VARIANT(bulk_avx2, HAPTIC_ISA_AVX2)
 #endif
 
 template <typename T>
-using PairFn = void (*)(T *, T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, T *,
-                        BulkRowHook, void *);
+using BlockFn = void (*)(T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, int, T *,
+                         BulkRowHook, void *);
 
-#define HAPTIC_PAIR_VARIANT(NAME, ATTR)                                                                                \
+#define HAPTIC_BLOCK_VARIANT(NAME, ATTR)                                                                               \
     template <typename T, bool Lossy, int E>                                                                           \
-    ATTR void NAME(T *u, T *d, T *dm, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,  \
-                   T *scratch, BulkRowHook row_done, void *ctx)                                                        \
+    ATTR void NAME(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,         \
+                   int steps, T *scratch, BulkRowHook row_done, void *ctx)                                             \
     {                                                                                                                  \
-        pair_body<T, Lossy, E>(u, d, dm, s, i0, i1, j0, j1, c, scratch, row_done, ctx);                                \
+        block_body<T, Lossy, E>(u, d, s, i0, i1, j0, j1, c, steps, scratch, row_done, ctx);                            \
     }
 
-HAPTIC_PAIR_VARIANT(pair_baseline, )
+HAPTIC_BLOCK_VARIANT(block_baseline, )
 #ifdef HAPTIC_DISPATCH
-HAPTIC_PAIR_VARIANT(pair_avx512, HAPTIC_ISA_AVX512)
-HAPTIC_PAIR_VARIANT(pair_avx2, HAPTIC_ISA_AVX2)
+HAPTIC_BLOCK_VARIANT(block_avx512, HAPTIC_ISA_AVX512)
+HAPTIC_BLOCK_VARIANT(block_avx2, HAPTIC_ISA_AVX2)
 #endif
 
 int kernel_isa_level()
@@ -232,12 +248,14 @@ void bulk_update(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int 
 }
 
 template <typename T, bool Lossy, int E>
-void bulk_update_pair(T *u, T *d, T *dm, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
-                      T *scratch, BulkRowHook row_done, void *ctx)
+void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
+                       int steps, T *scratch, BulkRowHook row_done, void *ctx)
 {
-    static const PairFn<T> fn =
-        HAPTIC_PICK_ISA(PairFn<T>, (pair_avx512<T, Lossy, E>), (pair_avx2<T, Lossy, E>), (pair_baseline<T, Lossy, E>));
-    fn(u, d, dm, s, i0, i1, j0, j1, c, scratch, row_done, ctx);
+    static const BlockFn<T> fn = HAPTIC_PICK_ISA(BlockFn<T>, (block_avx512<T, Lossy, E>), (block_avx2<T, Lossy, E>),
+                                                 (block_baseline<T, Lossy, E>));
+    if (steps < 2 || steps > bulk_max_block_steps)
+        throw std::invalid_argument("bulk_update_block: steps must be 2 .. " + std::to_string(bulk_max_block_steps));
+    fn(u, d, s, i0, i1, j0, j1, c, steps, scratch, row_done, ctx);
 }
 
 template <typename T, bool Lossy, int E>
@@ -276,8 +294,8 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
                                     const BulkCoefficients<T> &, T *, BulkPhase);                                      \
     template void bulk_update_threads<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                   \
                                             const BulkCoefficients<T> &, int, T *);                                    \
-    template void bulk_update_pair<T, L, 1>(T *, T *, T *, std::ptrdiff_t, int, int, int, int,                         \
-                                            const BulkCoefficients<T> &, T *, BulkRowHook, void *);
+    template void bulk_update_block<T, L, 1>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
+                                             const BulkCoefficients<T> &, int, T *, BulkRowHook, void *);
 #define HAPTIC_LANES_INSTANCES(T, L)                                                                                   \
     template void bulk_update_lanes<T, L, 1>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
@@ -287,12 +305,12 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
                                              const BulkCoefficients<T> &, T *);                                        \
     template void bulk_update_lanes<T, L, 8>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
-    template void bulk_update_pair<T, L, 2>(T *, T *, T *, std::ptrdiff_t, int, int, int, int,                         \
-                                            const BulkCoefficients<T> &, T *, BulkRowHook, void *);                    \
-    template void bulk_update_pair<T, L, 4>(T *, T *, T *, std::ptrdiff_t, int, int, int, int,                         \
-                                            const BulkCoefficients<T> &, T *, BulkRowHook, void *);                    \
-    template void bulk_update_pair<T, L, 8>(T *, T *, T *, std::ptrdiff_t, int, int, int, int,                         \
-                                            const BulkCoefficients<T> &, T *, BulkRowHook, void *);
+    template void bulk_update_block<T, L, 2>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
+                                             const BulkCoefficients<T> &, int, T *, BulkRowHook, void *);              \
+    template void bulk_update_block<T, L, 4>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
+                                             const BulkCoefficients<T> &, int, T *, BulkRowHook, void *);              \
+    template void bulk_update_block<T, L, 8>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
+                                             const BulkCoefficients<T> &, int, T *, BulkRowHook, void *);
 HAPTIC_LANES_INSTANCES(float, false)
 HAPTIC_LANES_INSTANCES(float, true)
 HAPTIC_LANES_INSTANCES(double, false)

@@ -106,21 +106,28 @@ template <typename T, bool Lossy>
 void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
                          const BulkCoefficients<T> &c, int threads, T *scratch);
 
-// Two steps in one sweep, one thread (temporal blocking): the first step's
-// rows run three ahead of the second's, so a row's u and d are read from
-// memory once for both steps (where the grid outgrows the core's caches, each
-// step otherwise streams u and d in and u and d^{n+1} out). On entry u = u^n
-// and d = d^n; on return u = u^{n+2}, d = d^{n+2}, d_mid = d^{n+1}; per step the
-// arithmetic is bulk_update's, term for term. After the first step has
-// updated row j (and its ghosts), `row_done(ctx, j)` is called: rows <= j hold
-// u^{n+1} until the second step reaches row j - 3 (the caller reads receivers
-// of the intermediate level there). scratch: bulk_pair_scratch_rows rows.
-constexpr int bulk_pair_scratch_rows = 6;
-using BulkRowHook = void (*)(void *ctx, int row);
+// Several steps in one sweep, one thread (temporal blocking): each step's
+// rows run two behind the step before it, so a row's u and d are read from
+// memory once for all of them (where the grid outgrows the core's caches, a
+// step otherwise streams u and d in and u and d^{n+1} out). u is updated in
+// place by each step in turn; the increments of the levels between stay in
+// three-row rings in `scratch` and never reach memory. On entry u = u^n and
+// d = d^n; on return u = u^{n+steps} and d = d^{n+steps}; per step the
+// arithmetic is bulk_update's, term for term. The rows j0 - 1 and j1 and the
+// columns i0 - 1 and i1 are the boundary nodes of mirrored edges (zero in
+// every level), the rows and columns are all the unknowns. After step m
+// (1 .. steps - 1) has updated row j (and its ghosts),
+// `row_done(ctx, m, j)` is called: u rows j - 2 .. j hold u^{n+m} until the
+// next step reaches row j - 2 (the caller reads receivers of the levels
+// between there). steps: 2 .. bulk_max_block_steps; scratch:
+// bulk_block_scratch_rows rows.
+constexpr int bulk_max_block_steps = 4;
+constexpr int bulk_block_scratch_rows = 3 * bulk_max_block_steps + 3 * (bulk_max_block_steps - 1) + 1;
+using BulkRowHook = void (*)(void *ctx, int level, int row);
 // E > 1: lanes (bulk_update_lanes' layout), no row_done.
 template <typename T, bool Lossy, int E = 1>
-void bulk_update_pair(T *u, T *d, T *d_mid, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
-                      const BulkCoefficients<T> &c, T *scratch, BulkRowHook row_done, void *ctx);
+void bulk_update_block(T *u, T *d, std::ptrdiff_t stride, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
+                       int steps, T *scratch, BulkRowHook row_done, void *ctx);
 
 // Several independent fields of one plate side by side (engine/lanes.h): node
 // (i, j) of lane l at u[j * stride + i * E + l], `stride` elements (a multiple

@@ -224,31 +224,44 @@ void Simulation::run(std::size_t steps)
                 if (interval > 0 && (now + 1) % interval == 0)
                     scan(e, "the whole-field scan");
             };
-            // Two steps in one sweep where nothing is due between them but the
-            // receivers: no force in the first, no lattice frame or scan after it.
-            constexpr bool pairable = requires { e->step_pair(nullptr); };
-            bool pairs = false;
-            if constexpr (pairable)
-                pairs = e->can_pair() && finger_force_.empty();
-            std::vector<double> between(pairs ? traces_.size() : 0);
-            for (std::size_t n = 0; n < steps; ++n) {
+            // Several steps in one sweep where nothing is due between them but
+            // the receivers: no force but in the last, no lattice frame or scan
+            // after any but the last.
+            auto due_after = [&](std::size_t now) {
+                return (lattice_stride_ > 0 && n_done_ok(now + 1)) || (interval > 0 && (now + 1) % interval == 0);
+            };
+            constexpr bool blockable = requires { e->step_block(2, nullptr); };
+            bool blocks = false;
+            if constexpr (blockable)
+                blocks = e->can_block() && finger_force_.empty();
+            std::vector<double> between(blocks ? std::size_t(bulk_max_block_steps - 1) * traces_.size() : 0);
+            for (std::size_t n = 0; n < steps;) {
                 const std::size_t now = e->steps_done();
-                const bool forced = set_forces(now);
-                if constexpr (pairable) {
-                    if (pairs && !forced && n + 1 < steps && !(lattice_stride_ > 0 && n_done_ok(now + 1)) &&
-                        !(interval > 0 && (now + 1) % interval == 0)) {
-                        set_forces(now + 1);
-                        e->step_pair(between.data());
-                        // A non-finite level between the two is caught as a
-                        // receiver's value; the scan then sees the level after them.
-                        after_step(now, [&](std::size_t r) { return between[r]; });
-                        after_step(now + 1, [&](std::size_t r) { return e->receiver_value(r); });
-                        ++n;
+                std::size_t block = 1;
+                if (!set_forces(now) && blocks)
+                    while (block < std::size_t(bulk_max_block_steps) && n + block < steps &&
+                           !due_after(now + block - 1)) {
+                        const bool forced = set_forces(now + block); // the forces of the block's last step
+                        ++block;
+                        if (forced)
+                            break;
+                    }
+                if constexpr (blockable) {
+                    if (block > 1) {
+                        e->step_block(int(block), between.data());
+                        // A non-finite level between is caught as a receiver's
+                        // value; the scan then sees the level after the block.
+                        for (std::size_t m = 1; m < block; ++m)
+                            after_step(now + m - 1,
+                                       [&](std::size_t r) { return between[(m - 1) * traces_.size() + r]; });
+                        after_step(now + block - 1, [&](std::size_t r) { return e->receiver_value(r); });
+                        n += block;
                         continue;
                     }
                 }
                 e->step();
                 after_step(now, [&](std::size_t r) { return e->receiver_value(r); });
+                ++n;
             }
             scan(e, "the whole-field scan at the end of the run");
         },

@@ -48,6 +48,7 @@ namespace {
 // side in the engine's lanes where the plate allows), in parallel.
 struct EmitterResponses {
     std::vector<std::vector<std::vector<float>>> pulse, impulse; // [emitter][site][n]
+    double responses_s = 0; // of the whole: the recordings resampled and convolved with the pulse
 };
 
 EmitterResponses simulate_emitters(const CalibrationInput &in, const std::vector<Point> &emitters,
@@ -75,6 +76,7 @@ EmitterResponses simulate_emitters(const CalibrationInput &in, const std::vector
     } catch (const engine::SourceFailure &ex) {
         throw std::runtime_error(name(ex.source()) + ": " + ex.what());
     }
+    const auto t0 = Clock::now();
     FirstFailure failure;
 #pragma omp parallel for schedule(dynamic)
     for (size_t e = 0; e < emitters.size(); e++) {
@@ -100,6 +102,7 @@ EmitterResponses simulate_emitters(const CalibrationInput &in, const std::vector
         }
     }
     failure.rethrow();
+    out.responses_s = seconds_since(t0);
     return out;
 }
 
@@ -142,6 +145,7 @@ PlacementSearch::PlacementSearch(const CalibrationInput &in, const CalibrationPl
     auto t0 = Clock::now();
     st.responses = simulate_emitters(in, st.emitters, pl.sites, rate_d_, st.foci, "simulate", progress);
     res.times.simulation_s = seconds_since(t0);
+    res.times.site_responses_s = st.responses.responses_s;
 
     // 2. Placement.
     t0 = Clock::now();

@@ -175,6 +175,7 @@ void write_metrics_json(const std::string &dir, const ReportContext &c)
         }
         const pipeline::StageTimes &s = c.result->times;
         root.insert("times_s", toml::table{{"simulation", s.simulation_s},
+                                           {"site_responses", s.site_responses_s},
                                            {"search", s.search_s},
                                            {"transfer", s.transfer_s},
                                            {"signals", s.signals_s},

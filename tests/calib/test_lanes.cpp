@@ -27,8 +27,9 @@ LanesRequest request(const PlateOperator &op, std::size_t sources, unsigned seed
     for (std::size_t s = 0; s < sources; ++s)
         rq.sources.push_back({x(rng), y(rng)});
     rq.sources[0] = {0.0, 0.5 * h}; // on the edge: a fixed node, no force reaches the field
+    // Forces alone and in runs, zeros between (the steps the engines block).
     for (int n = 0; n < 40; ++n)
-        rq.force_n.push_back(f(rng));
+        rq.force_n.push_back(n % 6 == 0 || n == 1 || n == 2 || n == 13 || n == 17 ? f(rng) : 0.0);
     for (int r = 0; r < 5; ++r)
         rq.receivers.push_back({x(rng), y(rng)});
     rq.lattice_stride = 3;

@@ -7,6 +7,7 @@
 // and the sparse edge rows forced) checked against each other over a run,
 // for every mix of the two edge kinds, with loss, in double and float.
 #include "engine/plate_engine.h"
+#include "engine/simulation.h"
 #include "test_plate_util.h"
 
 #include <gtest/gtest.h>
@@ -178,59 +179,126 @@ TEST(EngineMirrorEdges, EnergyIsConservedWithoutLossAndFallsWithIt)
 
 namespace {
 
-// Two steps in one sweep against step() twice from the same state: the same
-// arithmetic term for term, so the same bits, in every field and in every
-// receiver between the two steps and after them. A source drives the second
-// step of some pairs (a force in the first refuses a pair).
+// Several steps in one sweep against step() as many times from the same
+// state: the same arithmetic term for term, so the same bits, in every field
+// and in every receiver between the steps and after them. A source drives the
+// last step of some blocks (a force in an earlier one refuses a block).
 template <typename T>
-void pair_against_single(const Edges &e, const Loss &loss, int nx, int ny)
+void block_against_single(const Edges &e, const Loss &loss, int nx, int ny, int steps)
 {
     auto op = make_plate(nx, ny, 0.01, e, 0.3, loss);
     const double k = 0.9 * op->max_time_step();
-    PlateEngine<T> paired(op, k), single(op, k);
-    ASSERT_TRUE(paired.can_pair()) << name_of(e);
+    PlateEngine<T> blocked(op, k), single(op, k);
+    ASSERT_TRUE(blocked.can_block()) << name_of(e);
     const auto a = random_field(*op, 7), b = random_field(*op, 8);
-    paired.set_state(a, b);
+    blocked.set_state(a, b);
     single.set_state(a, b);
     // Receivers on every row band, the last on the top edge's row of nodes.
     const double lx = nx * 0.01, ly = ny * 0.01;
     for (auto [x, y] : {std::pair{0.31, 0.05}, {0.52, 0.5}, {0.013, 0.97}, {0.77, 0.993}, {0.5, 1.0}})
-        for (PlateEngine<T> *eng : {&paired, &single})
+        for (PlateEngine<T> *eng : {&blocked, &single})
             eng->add_receiver(x * lx, y * ly);
-    const std::size_t src = paired.add_source(0.4 * lx, 0.6 * ly);
+    const std::size_t src = blocked.add_source(0.4 * lx, 0.6 * ly);
     single.add_source(0.4 * lx, 0.6 * ly);
-    std::vector<double> between(5);
-    for (int n = 0; n < 300; ++n) {
+    std::vector<double> between(5 * std::size_t(steps - 1));
+    for (int n = 0; n < 600 / steps; ++n) {
         const double f = n % 3 == 0 ? std::sin(0.7 * n) : 0.0;
-        paired.set_source_force(src, f);
-        paired.step_pair(between.data());
-        single.set_source_force(src, 0.0);
-        single.step();
-        for (std::size_t r = 0; r < 5; ++r)
-            ASSERT_EQ(between[r], single.receiver_value(r)) << name_of(e) << " pair " << n << " receiver " << r;
+        blocked.set_source_force(src, f);
+        blocked.step_block(steps, between.data());
+        for (int m = 1; m < steps; ++m) {
+            single.set_source_force(src, 0.0);
+            single.step();
+            for (std::size_t r = 0; r < 5; ++r)
+                ASSERT_EQ(between[std::size_t(m - 1) * 5 + r], single.receiver_value(r))
+                    << name_of(e) << " block " << n << " level " << m << " receiver " << r;
+        }
         single.set_source_force(src, f);
         single.step();
         for (std::size_t r = 0; r < 5; ++r)
-            ASSERT_EQ(paired.receiver_value(r), single.receiver_value(r)) << name_of(e) << " pair " << n;
+            ASSERT_EQ(blocked.receiver_value(r), single.receiver_value(r)) << name_of(e) << " block " << n;
     }
-    EXPECT_EQ(paired.steps_done(), single.steps_done());
-    const auto x = paired.displacement(), y = single.displacement();
+    EXPECT_EQ(blocked.steps_done(), single.steps_done());
+    const auto x = blocked.displacement(), y = single.displacement();
     for (std::size_t i = 0; i < x.size(); ++i)
         ASSERT_EQ(x[i], y[i]) << name_of(e) << " node " << i;
-    EXPECT_NE(paired.energy(), 0.0);
-    EXPECT_EQ(paired.energy(), single.energy()) << name_of(e); // d^{n+2} too
+    EXPECT_NE(blocked.energy(), 0.0);
+    EXPECT_EQ(blocked.energy(), single.energy()) << name_of(e); // the newest increment too
 }
 
 } // namespace
 
-TEST(EngineMirrorEdges, TwoStepsInOneSweepAreTwoStepsBitForBit)
+TEST(EngineMirrorEdges, StepsInOneSweepAreStepsBitForBit)
 {
-    for (const Edges &e : mirror_edge_combinations())
-        for (const Loss &loss : {Loss{}, Loss{2.0, 5e-4}}) {
-            pair_against_single<double>(e, loss, 23, 17);
-            pair_against_single<float>(e, loss, 23, 17);
+    for (int steps = 2; steps <= calib::engine::bulk_max_block_steps; ++steps) {
+        for (const Edges &e : mirror_edge_combinations())
+            for (const Loss &loss : {Loss{}, Loss{2.0, 5e-4}}) {
+                block_against_single<double>(e, loss, 23, 17, steps);
+                block_against_single<float>(e, loss, 23, 17, steps);
+            }
+        // The smallest grids a block runs on: one and two rows of unknowns fewer than the lag.
+        block_against_single<float>(Edges::all(EdgeKind::clamped), Loss{2.0, 5e-4}, 6, 4, steps);
+        block_against_single<double>(Edges::all(EdgeKind::simply_supported), Loss{}, 5, 5, steps);
+    }
+}
+
+// A Simulation steps in blocks (bulk_update_block) wherever nothing but its
+// receivers is due between steps: no force but in a block's last step, no
+// lattice frame or scan after any but the last. Against the engine stepped
+// one step at a time with the same forces: the same bits in every trace,
+// every lattice frame and the final field, for a signal with forces alone and
+// in runs, a lattice and scans at intervals prime to each other and runs cut
+// anywhere.
+TEST(EngineMirrorEdges, ASimulationBlocksOnlyStepsWithNothingButReceiversBetween)
+{
+    for (Precision p : {Precision::f32, Precision::f64}) {
+        auto op = make_plate(
+            21, 17, 0.01,
+            Edges{EdgeKind::clamped, EdgeKind::simply_supported, EdgeKind::clamped, EdgeKind::simply_supported}, 0.3,
+            Loss{2.0, 5e-4});
+        SimulationOptions o;
+        o.precision = p;
+        o.field_check_interval = 7;
+        Simulation sim(op, o);
+        std::vector<double> force(90, 0.0);
+        for (int n : {0, 1, 2, 6, 11, 13, 14, 15, 16, 29, 34, 35, 60, 89})
+            force[std::size_t(n)] = std::cos(0.3 * n) + 0.5;
+        const double x = 0.08, y = 0.1;
+        sim.set_source_signal(sim.add_source(x, y), force);
+        const std::vector<std::pair<double, double>> at = {{0.05, 0.02}, {0.13, 0.09}, {0.2, 0.16}};
+        for (auto [rx, ry] : at)
+            sim.add_receiver(rx, ry);
+        sim.record_lattice(4, 5, 9);
+        for (int run : {1, 3, 10, 17, 40, 29})
+            sim.run(std::size_t(run));
+
+        auto check = [&](auto &eng) {
+            ASSERT_TRUE(eng.can_block());
+            const std::size_t src = eng.add_source(x, y);
+            for (auto [rx, ry] : at)
+                eng.add_receiver(rx, ry);
+            std::vector<float> frames;
+            for (std::size_t n = 0; n < 100; ++n) {
+                eng.set_source_force(src, n < force.size() ? force[n] : 0.0);
+                eng.step();
+                for (std::size_t r = 0; r < at.size(); ++r)
+                    ASSERT_EQ(sim.traces()[r][n], eng.receiver_value(r)) << "step " << n << " receiver " << r;
+                if (n >= 5 && (n - 5) % 9 == 0)
+                    for (int j = 0; j <= 17; j += 4)
+                        for (int i = 0; i <= 21; i += 4)
+                            frames.push_back(float(eng.w_at(i, j)));
+            }
+            ASSERT_EQ(sim.lattice_frames().size(), frames.size());
+            for (std::size_t f = 0; f < frames.size(); ++f)
+                ASSERT_EQ(sim.lattice_frames()[f], frames[f]) << "lattice value " << f;
+            EXPECT_EQ(sim.snapshot(), eng.displacement());
+        };
+        const double k = sim.time_step_s();
+        if (p == Precision::f32) {
+            PlateEngine<float> eng(op, k);
+            check(eng);
+        } else {
+            PlateEngine<double> eng(op, k);
+            check(eng);
         }
-    // The smallest grids a pair runs on: one and two rows of unknowns fewer than the lag.
-    pair_against_single<float>(Edges::all(EdgeKind::clamped), Loss{2.0, 5e-4}, 6, 4);
-    pair_against_single<double>(Edges::all(EdgeKind::simply_supported), Loss{}, 5, 5);
+    }
 }

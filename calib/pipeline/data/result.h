@@ -50,6 +50,9 @@ struct PlacementReport {
 
 struct StageTimes {
     double simulation_s = 0, search_s = 0, transfer_s = 0, signals_s = 0, verification_s = 0;
+    // The site recordings resampled to the search rate and convolved with the
+    // pulse (part of simulation_s; the rest is the engine's simulations).
+    double site_responses_s = 0;
     double sound_s = 0; // the radiated sound of every focus (part of verification_s)
     // The search by the verdict (pipeline/placement_verdict.h): every placement judged,
     // the probes and the searches again; the chosen placement's transfer,
