@@ -109,9 +109,11 @@ class LanesEngine {
     {
         before_sweep(force);
         if (lossy_)
-            bulk_update_block<T, true, E>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, scratch_, nullptr, nullptr);
+            bulk_update_block<T, true, E>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, 1, scratch_, nullptr,
+                                          nullptr);
         else
-            bulk_update_block<T, false, E>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, scratch_, nullptr, nullptr);
+            bulk_update_block<T, false, E>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, 1, scratch_, nullptr,
+                                           nullptr);
         apply_force(force); // inc_ holds the newest increment, as after as many step()s
     }
     // The sweep refreshes the ghosts (plate_kernels.h); a whole pass after a

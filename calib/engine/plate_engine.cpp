@@ -88,7 +88,7 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     }
     const std::size_t level = std::size_t(stride_) * std::size_t(ny_ + 3);
     const std::size_t scratch =
-        std::size_t(stride_) * std::size_t(std::max(bulk_threads_ * bulk_scratch_rows, bulk_block_scratch_rows));
+        std::size_t(stride_) * std::size_t(bulk_threads_ * std::max(bulk_scratch_rows, bulk_block_scratch_rows));
     const std::size_t total = 3 * level + scratch;
     storage_ = static_cast<T *>(std::aligned_alloc(64, total * sizeof(T)));
     if (!storage_)
@@ -206,11 +206,15 @@ std::size_t PlateEngine<T>::add_receiver(double x_m, double y_m)
         tap.offset.push_back(offset_of(nw.node));
         tap.weight.push_back(T(nw.weight));
     }
-    std::ptrdiff_t last = 0; // the last row it reads
-    for (std::ptrdiff_t o : tap.offset)
-        last = std::max(last, o / stride_);
-    const std::pair<int, std::size_t> key{int(last), receivers_.size()};
-    receiver_rows_.insert(std::upper_bound(receiver_rows_.begin(), receiver_rows_.end(), key), key);
+    int first = tap.offset.empty() ? 1 : ny_, last = 1; // the rows it reads (none: read anywhere)
+    for (std::ptrdiff_t o : tap.offset) {
+        first = std::min(first, int(o / stride_));
+        last = std::max(last, int(o / stride_));
+    }
+    if (last > first + 1)
+        throw std::logic_error("PlateEngine::add_receiver: a receiver reads more than two rows");
+    receiver_rows_.emplace_back(first, last);
+    block_reads_stale_ = true;
     receivers_.push_back(std::move(tap));
     return receivers_.size() - 1;
 }
@@ -283,33 +287,58 @@ void PlateEngine<T>::apply_sources()
 }
 
 template <typename T>
+void PlateEngine<T>::build_block_reads()
+{
+    for (int m = 1; m < bulk_max_block_steps; ++m) {
+        BlockReads &br = block_reads_[std::size_t(m)];
+        std::vector<int> row(receivers_.size());
+        br.first.assign(std::size_t(ny_) + 2, 0);
+        for (std::size_t r = 0; r < receivers_.size(); ++r) {
+            const auto [first, last] = receiver_rows_[r];
+            row[r] = block_hook_row(1, ny_, bulk_threads_, m, first, last);
+            ++br.first[std::size_t(row[r]) + 1];
+        }
+        for (std::size_t j = 1; j < br.first.size(); ++j)
+            br.first[j] += br.first[j - 1];
+        br.receiver.assign(receivers_.size(), 0);
+        std::vector<std::uint32_t> next(br.first.begin(), br.first.end() - 1);
+        for (std::size_t r = 0; r < receivers_.size(); ++r)
+            br.receiver[next[std::size_t(row[r])]++] = std::uint32_t(r);
+    }
+    block_reads_stale_ = false;
+}
+
+template <typename T>
 void PlateEngine<T>::step_block(int steps, double *between)
 {
     if (!can_block())
-        throw std::logic_error("PlateEngine::step_block: several steps in one sweep need ghost mirrors, one thread and "
-                               "no extension");
+        throw std::logic_error("PlateEngine::step_block: several steps in one sweep need ghost mirrors, no extension "
+                               "and rows enough for the threads");
     refresh_stale_ghosts();
-    // Between the steps, each receiver is read once the step has updated
-    // every row it reads (the next step is two rows behind); a receiver
-    // reads unknowns only (point_weights drops fixed nodes), rows 1 .. ny - 1,
-    // all of which every step updates.
+    if (block_reads_stale_)
+        build_block_reads();
+    // Between the steps, each receiver is read once its step has updated the
+    // rows it reads (the next step is two rows behind; block_hook_row); a
+    // receiver reads unknowns only (point_weights drops fixed nodes), rows
+    // 1 .. ny - 1, all of which every step updates. Each (level, row) is
+    // reported once, so the threads write disjoint entries.
     struct Reads {
         const PlateEngine *engine;
         double *out;
-        std::array<std::size_t, bulk_max_block_steps> next;
-    } reads{this, between, {}};
+    } reads{this, between};
     auto row_done = [](void *ctx, int level, int row) {
-        Reads &r = *static_cast<Reads *>(ctx);
-        const auto &rows = r.engine->receiver_rows_;
-        std::size_t &next = r.next[std::size_t(level)];
-        double *out = r.out + std::size_t(level - 1) * rows.size();
-        for (; next < rows.size() && rows[next].first <= row; ++next)
-            out[rows[next].second] = r.engine->receiver_value(rows[next].second);
+        const Reads &r = *static_cast<const Reads *>(ctx);
+        const BlockReads &br = r.engine->block_reads_[std::size_t(level)];
+        double *out = r.out + std::size_t(level - 1) * r.engine->receivers_.size();
+        for (std::uint32_t i = br.first[std::size_t(row)]; i < br.first[std::size_t(row) + 1]; ++i)
+            out[br.receiver[i]] = r.engine->receiver_value(br.receiver[i]);
     };
     if (lossy_)
-        bulk_update_block<T, true>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, scratch_, row_done, &reads);
+        bulk_update_block<T, true>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
+                                   &reads);
     else
-        bulk_update_block<T, false>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, scratch_, row_done, &reads);
+        bulk_update_block<T, false>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
+                                    &reads);
     // inc_ holds d^{n+steps}, the newest increment, as after as many step()s.
     apply_sources();
     steps_ += std::size_t(steps);

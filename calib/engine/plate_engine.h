@@ -114,13 +114,17 @@ class PlateEngine final : public PointField {
 
     // One step: u^{n+1} and d^{n+1} from u^n and d^n.
     void step();
-    // Whether step_block() may run: ghost mirrors, one thread, no extension.
-    bool can_block() const { return mirror_edges_ && bulk_threads_ == 1 && extensions_.empty() && rigid_count_ == 0; }
+    // Whether step_block() may run: ghost mirrors, no extension, rows enough
+    // for the threads (block_threads_fit).
+    bool can_block() const
+    {
+        return mirror_edges_ && extensions_.empty() && rigid_count_ == 0 && block_threads_fit(1, ny_, bulk_threads_);
+    }
     // `steps` (2 .. bulk_max_block_steps) steps in one sweep
-    // (bulk_update_block): all but the last with no source force, the last
-    // with the forces set now (as step() `steps` times with every force 0
-    // before the last); between[(m - 1) * receivers + r] receives
-    // receiver_value(r) of the level after step m (1 .. steps - 1).
+    // (bulk_update_block, on the engine's threads): all but the last with no
+    // source force, the last with the forces set now (as step() `steps` times
+    // with every force 0 before the last); between[(m - 1) * receivers + r]
+    // receives receiver_value(r) of the level after step m (1 .. steps - 1).
     void step_block(int steps, double *between);
 
     // Discrete energy (J) at time n+1/2 from the two newest levels; exactly
@@ -182,8 +186,16 @@ class PlateEngine final : public PointField {
     template <bool Lossy>
     void step_impl();
     void apply_sources();
-    // Receivers by the last row they read, kept sorted by add_receiver (step_block's reads between its steps).
-    std::vector<std::pair<int, std::size_t>> receiver_rows_;
+    // The receivers step_block reads between its steps: for level m, those
+    // read once row j is updated are receiver[first[j] .. first[j + 1])
+    // (block_hook_row). Rebuilt when a receiver is added.
+    struct BlockReads {
+        std::vector<std::uint32_t> first, receiver;
+    };
+    std::array<BlockReads, bulk_max_block_steps> block_reads_;
+    bool block_reads_stale_ = true;
+    std::vector<std::pair<int, int>> receiver_rows_; // the first and last row each receiver reads
+    void build_block_reads();
     // Clamped and supported edges only: ghost nodes instead of an edge band.
     bool mirror_edges_apply() const;
     void refresh_stale_ghosts(); // a whole pass if something outside the sweep moved a node next to an edge

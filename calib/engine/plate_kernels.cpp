@@ -3,6 +3,8 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstddef>
 #include <initializer_list>
 #include <stdexcept>
@@ -12,6 +14,20 @@ namespace calib::engine {
 
 namespace {
 
+// a * b + c: fused (one rounding) in the variants for CPUs with FMA, two
+// roundings in the baseline. Written out, since this file is compiled
+// without contraction (CMakeLists.txt): where the compiler fuses is its own
+// choice per inlined copy and per vector or scalar path, and the single
+// step, the blocks of steps and the lanes must round alike.
+template <bool Fma, typename T>
+inline __attribute__((always_inline)) T mul_add(T a, T b, T c)
+{
+    if constexpr (Fma)
+        return std::fma(a, b, c);
+    else
+        return a * b + c;
+}
+
 // The ring holds, per row, what the sweep's second Laplacian takes:
 // lossless, the Laplacian of u, L(u); lossy, the row's share of the whole
 // right-hand side, W = nu1 d - mu2 L(u), so that d^{n+1} = g d + L(W) (the
@@ -19,11 +35,11 @@ namespace {
 // fewer per node, and three loads of d^n's neighbours fewer). W is formed
 // from differences as before: a field constant in u and d gives L(W) = 0
 // exactly.
-template <typename T, bool Lossy>
+template <typename T, bool Lossy, bool Fma>
 inline __attribute__((always_inline)) T ring_value(T lap_u, T d, const BulkCoefficients<T> &c)
 {
     if constexpr (Lossy)
-        return c.nu1 * d - c.mu2 * lap_u;
+        return mul_add<Fma>(-c.mu2, lap_u, c.nu1 * d);
     else
         return lap_u;
 }
@@ -33,7 +49,7 @@ inline __attribute__((always_inline)) T ring_value(T lap_u, T d, const BulkCoeff
 // j+1, then d^{n+1} and u^{n+1} in place. u row j is read (for the Laplacian
 // of row j+1) before it is written, in the same iteration; no later iteration
 // reads it. No branches inside the i loop.
-template <typename T, bool Lossy, bool Fresh, int E>
+template <typename T, bool Lossy, bool Fresh, int E, bool Fma>
 inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T *__restrict u1, const T *__restrict u2,
                                                       const T *__restrict lm, const T *__restrict l0, T *__restrict lp,
                                                       const T *__restrict d0, const T *__restrict dp, T *__restrict dn,
@@ -45,8 +61,8 @@ inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T 
         for (int i : {i0 - 1, i1})
             for (int q = i * E; q < (i + 1) * E; ++q) {
                 const T cc = u1[q];
-                lp[q] = ring_value<T, Lossy>(((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc)),
-                                             dp[q], c);
+                lp[q] = ring_value<T, Lossy, Fma>(((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc)),
+                                                  dp[q], c);
             }
     }
     // q runs over the row's nodes and, within a node, its E lanes: the
@@ -56,8 +72,8 @@ inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T 
         T lnext;
         if constexpr (Fresh) {
             const T cc = u1[q];
-            lnext =
-                ring_value<T, Lossy>(((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc)), dp[q], c);
+            lnext = ring_value<T, Lossy, Fma>(((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc)),
+                                              dp[q], c);
             lp[q] = lnext;
         } else {
             lnext = lp[q];
@@ -65,15 +81,15 @@ inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T 
         const T lap2 = ((lm[q] + lnext) + (l0[q - E] + l0[q + E])) - T(4) * l0[q];
         T v;
         if constexpr (Lossy)
-            v = g * d0[q] + lap2;
+            v = mul_add<Fma>(g, d0[q], lap2);
         else
-            v = g * d0[q] - mu2 * lap2;
+            v = mul_add<Fma>(-mu2, lap2, g * d0[q]);
         dn[q] = v;
         u0[q] += v;
     }
 }
 
-template <typename T, bool Lossy, int E>
+template <typename T, bool Lossy, int E, bool Fma>
 inline __attribute__((always_inline)) void ring_row(const T *__restrict r0, const T *__restrict r1,
                                                     const T *__restrict r2, const T *__restrict d1, T *__restrict out,
                                                     int lo, int hi, const BulkCoefficients<T> &c)
@@ -81,7 +97,8 @@ inline __attribute__((always_inline)) void ring_row(const T *__restrict r0, cons
 #pragma omp simd
     for (int q = lo * E; q < hi * E; ++q) {
         const T cc = r1[q];
-        out[q] = ring_value<T, Lossy>(((r1[q - E] - cc) + (r1[q + E] - cc)) + ((r0[q] - cc) + (r2[q] - cc)), d1[q], c);
+        out[q] =
+            ring_value<T, Lossy, Fma>(((r1[q - E] - cc) + (r1[q + E] - cc)) + ((r0[q] - cc) + (r2[q] - cc)), d1[q], c);
     }
 }
 
@@ -96,7 +113,7 @@ inline T *laplacian_slot(T *scratch, std::ptrdiff_t s, int a, int b, int row)
     return row >= b - 1 ? scratch + (3 + row - (b - 1)) * s : scratch + ((row - a + 1) % 3) * s;
 }
 
-template <typename T, bool Lossy, int E>
+template <typename T, bool Lossy, int E, bool Fma>
 inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int a,
                                                      int b, const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)
 {
@@ -104,8 +121,8 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
         return;
     if (phase != BulkPhase::sweep)
         for (int row : {a - 1, a, b - 1, b})
-            ring_row<T, Lossy, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, d + row * s,
-                                  laplacian_slot(scratch, s, a, b, row), i0 - 1, i1 + 1, c);
+            ring_row<T, Lossy, E, Fma>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, d + row * s,
+                                       laplacian_slot(scratch, s, a, b, row), i0 - 1, i1 + 1, c);
     if (phase == BulkPhase::prologue)
         return;
     for (int j = a; j < b; ++j) {
@@ -115,9 +132,9 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
         T *lm = laplacian_slot(scratch, s, a, b, j - 1), *l0 = laplacian_slot(scratch, s, a, b, j),
           *lp = laplacian_slot(scratch, s, a, b, j + 1);
         if (j + 1 < b - 1)
-            output_row<T, Lossy, true, E>(u0, u1, u2, lm, l0, lp, d0, d0 + s, dn + j * s, i0, i1, c);
+            output_row<T, Lossy, true, E, Fma>(u0, u1, u2, lm, l0, lp, d0, d0 + s, dn + j * s, i0, i1, c);
         else
-            output_row<T, Lossy, false, E>(u0, u1, u2, lm, l0, lp, d0, d0 + s, dn + j * s, i0, i1, c);
+            output_row<T, Lossy, false, E, Fma>(u0, u1, u2, lm, l0, lp, d0, d0 + s, dn + j * s, i0, i1, c);
         refresh_ghosts<T, E>(u, s, j, c.ghosts);
     }
 }
@@ -130,45 +147,103 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
 // writes d^{n+k+1} row j. The increments between the first level and the last
 // live in rings of three rows (written at t, read at t + 1 and t + 2); the
 // last step writes d^{n+steps} over d^n row j, which the first step last read
-// at t - 2 (steps - 1). Each step's Laplacian ring starts from rows j0 - 1 and
-// j0 once the step before has updated row j0 + 1 (and the ghost row below
-// it), before the step's own first row.
-template <typename T, bool Lossy, int E>
+// at t - 2 (steps - 1).
+//
+// With several threads the rows are cut at seams M into contiguous blocks,
+// and each block is a trapezoid: step k of a block runs its rows up to
+// M - 2 k - 1 below a seam and from M + 2 k + 1 above one (phase A, all
+// threads at once: no row a thread updates is read by another, so no
+// barrier before it); after one barrier the thread below each seam runs
+// the rows between, [M - 2 k - 1, M + 2 k + 1) of step k (phase B). Phase B
+// continues the rings of the block below (its Laplacian and increment rows
+// where phase A left them) and takes from the block above the first two
+// Laplacian rows of each step (`start`, made there before the step's first
+// row) and the first two increment rows each step wrote (`head`), since the
+// block above has moved its own rows on since.
+constexpr int block_max = bulk_max_block_steps;
+template <typename T>
+struct BlockRegion {
+    int steps = 0;
+    std::array<int, block_max> lo{}, hi{}; // rows of step k
+    bool phase_b = false;                  // rings continue from phase A; the top rows from the block above
+    bool head = false;                     // phase A above a seam: the first two increment rows of each step to `heads`
+    // This thread's scratch: ring 3 rows per step, inc 3 per level between,
+    // start 2 per step, heads 2 per level between, one zero row.
+    T *ring = nullptr, *inc = nullptr, *start = nullptr, *heads = nullptr, *zero = nullptr;
+    const T *above_start = nullptr, *above_heads = nullptr; // phase B: the block above's
+};
+
+template <typename T>
+BlockRegion<T> block_scratch(T *scratch, std::ptrdiff_t s)
+{
+    BlockRegion<T> r;
+    r.ring = scratch;
+    r.inc = r.ring + 3 * block_max * s;
+    r.start = r.inc + 3 * (block_max - 1) * s;
+    r.heads = r.start + 2 * block_max * s;
+    r.zero = r.heads + 2 * (block_max - 1) * s;
+    return r;
+}
+
+template <typename T, bool Lossy, int E, bool Fma>
 inline __attribute__((always_inline)) void block_body(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
-                                                      const BulkCoefficients<T> &c, int steps, T *scratch,
+                                                      const BulkCoefficients<T> &c, const BlockRegion<T> &r,
                                                       BulkRowHook row_done, void *ctx)
 {
-    if (j1 <= j0)
-        return;
-    constexpr int lag = 2, K = bulk_max_block_steps;
-    auto ring = [&](int k, int row) { return scratch + (3 * k + row % 3) * s; };
-    T *const zero = scratch + (3 * K + 3 * (K - 1)) * s; // never written
-    auto inc = [&](int k, int row) -> T * {              // d^{n+k}, row `row`
+    const int steps = r.steps;
+    auto ring = [&](int k, int row) __attribute__((always_inline))->T *
+    {
+        if (!r.phase_b && row <= r.lo[k])
+            return r.start + (2 * k + row - r.lo[k] + 1) * s;
+        if (r.phase_b && row >= r.hi[k] - 1)
+            return const_cast<T *>(r.above_start) + (2 * k + row - r.hi[k] + 1) * s; // read only
+        return r.ring + (3 * k + row % 3) * s;
+    };
+    auto inc = [&](int k, int row) __attribute__((always_inline))->T *
+    { // d^{n+k}, row `row`
         if (k == 0 || k == steps)
             return d + row * s;
         if (row < j0 || row >= j1)
-            return zero;
-        return scratch + (3 * K + 3 * (k - 1) + row % 3) * s;
+            return r.zero; // never written
+        if (r.head && row < r.lo[k - 1] + 2)
+            return r.heads + (2 * (k - 1) + row - r.lo[k - 1]) * s;
+        if (r.phase_b && row >= r.hi[k - 1])
+            return const_cast<T *>(r.above_heads) + (2 * (k - 1) + row - r.hi[k - 1]) * s; // read only
+        return r.inc + (3 * (k - 1) + row % 3) * s;
     };
-    auto start_ring = [&](int k) {
-        for (int row : {j0 - 1, j0})
-            ring_row<T, Lossy, E>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, inc(k, row), ring(k, row), i0 - 1,
-                                  i1 + 1, c);
+    auto start_ring = [&](int k) __attribute__((always_inline))
+    {
+        for (int row : {r.lo[k] - 1, r.lo[k]})
+            ring_row<T, Lossy, E, Fma>(u + (row - 1) * s, u + row * s, u + (row + 1) * s, inc(k, row), ring(k, row),
+                                       i0 - 1, i1 + 1, c);
     };
-    start_ring(0);
-    const int ready = std::min(j0 + 1, j1 - 1); // u^{n+k} rows j0 - 2 .. j0 + 1 are there once this row is
-    for (int t = j0; t < j1 + lag * (steps - 1); ++t)
+    int t0 = r.lo[0], t1 = r.hi[0];
+    for (int k = 0; k < steps; ++k)
+        if (r.hi[k] > r.lo[k]) {
+            t0 = std::min(t0, r.lo[k] + 2 * k);
+            t1 = std::max(t1, r.hi[k] + 2 * k);
+        }
+    if (!r.phase_b)
+        start_ring(0);
+    for (int t = t0; t < t1; ++t)
         for (int k = 0; k < steps; ++k) {
-            const int j = t - lag * k;
-            if (j < j0 || j >= j1)
+            const int j = t - 2 * k;
+            if (j < r.lo[k] || j >= r.hi[k])
                 continue;
-            output_row<T, Lossy, true, E>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring(k, j - 1), ring(k, j),
-                                          ring(k, j + 1), inc(k, j), inc(k, j + 1), inc(k + 1, j), i0, i1, c);
+            T *lp = ring(k, j + 1);
+            if (r.phase_b && j + 1 >= r.hi[k] - 1)
+                output_row<T, Lossy, false, E, Fma>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring(k, j - 1),
+                                                    ring(k, j), lp, inc(k, j), inc(k, j + 1), inc(k + 1, j), i0, i1, c);
+            else
+                output_row<T, Lossy, true, E, Fma>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring(k, j - 1),
+                                                   ring(k, j), lp, inc(k, j), inc(k, j + 1), inc(k + 1, j), i0, i1, c);
             refresh_ghosts<T, E>(u, s, j, c.ghosts);
             if (k + 1 < steps) {
                 if (row_done)
                     row_done(ctx, k + 1, j);
-                if (j == ready)
+                // Step k + 1's first two Laplacian rows, once u^{n+k+1} rows
+                // lo - 2 .. lo + 1 are there (and before its first row).
+                if (!r.phase_b && j == std::min(r.lo[k + 1] + 1, r.hi[k] - 1))
                     start_ring(k + 1);
             }
         }
@@ -184,36 +259,36 @@ template <typename T>
 using BulkFn = void (*)(T *, const T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, T *,
                         BulkPhase);
 
-#define HAPTIC_BULK_VARIANT(NAME, ATTR)                                                                                \
+#define HAPTIC_BULK_VARIANT(NAME, ATTR, FMA)                                                                           \
     template <typename T, bool Lossy, int E>                                                                           \
     ATTR void NAME(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int j0, int j1,                          \
                    const BulkCoefficients<T> &c, T *scratch, BulkPhase phase)                                          \
     {                                                                                                                  \
-        bulk_body<T, Lossy, E>(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);                                        \
+        bulk_body<T, Lossy, E, FMA>(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);                                   \
     }
 
-HAPTIC_BULK_VARIANT(bulk_baseline, )
+HAPTIC_BULK_VARIANT(bulk_baseline, , false)
 #ifdef HAPTIC_DISPATCH
-HAPTIC_BULK_VARIANT(bulk_avx512, HAPTIC_ISA_AVX512)
-HAPTIC_BULK_VARIANT(bulk_avx2, HAPTIC_ISA_AVX2)
+HAPTIC_BULK_VARIANT(bulk_avx512, HAPTIC_ISA_AVX512, true)
+HAPTIC_BULK_VARIANT(bulk_avx2, HAPTIC_ISA_AVX2, true)
 #endif
 
 template <typename T>
-using BlockFn = void (*)(T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &, int, T *,
-                         BulkRowHook, void *);
+using BlockFn = void (*)(T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &,
+                         const BlockRegion<T> &, BulkRowHook, void *);
 
-#define HAPTIC_BLOCK_VARIANT(NAME, ATTR)                                                                               \
+#define HAPTIC_BLOCK_VARIANT(NAME, ATTR, FMA)                                                                          \
     template <typename T, bool Lossy, int E>                                                                           \
     ATTR void NAME(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,         \
-                   int steps, T *scratch, BulkRowHook row_done, void *ctx)                                             \
+                   const BlockRegion<T> &r, BulkRowHook row_done, void *ctx)                                           \
     {                                                                                                                  \
-        block_body<T, Lossy, E>(u, d, s, i0, i1, j0, j1, c, steps, scratch, row_done, ctx);                            \
+        block_body<T, Lossy, E, FMA>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx);                                    \
     }
 
-HAPTIC_BLOCK_VARIANT(block_baseline, )
+HAPTIC_BLOCK_VARIANT(block_baseline, , false)
 #ifdef HAPTIC_DISPATCH
-HAPTIC_BLOCK_VARIANT(block_avx512, HAPTIC_ISA_AVX512)
-HAPTIC_BLOCK_VARIANT(block_avx2, HAPTIC_ISA_AVX2)
+HAPTIC_BLOCK_VARIANT(block_avx512, HAPTIC_ISA_AVX512, true)
+HAPTIC_BLOCK_VARIANT(block_avx2, HAPTIC_ISA_AVX2, true)
 #endif
 
 int kernel_isa_level()
@@ -247,15 +322,75 @@ void bulk_update(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int 
     fn(u, d, dn, s, i0, i1, j0, j1, c, scratch, phase);
 }
 
+int block_seam(int j0, int j1, int threads, int t) { return j0 + int(std::ptrdiff_t(j1 - j0) * t / threads); }
+
+
+bool block_threads_fit(int j0, int j1, int threads)
+{
+    return threads <= 1 || (j1 - j0) / threads >= block_min_rows_per_thread;
+}
+
+int block_hook_row(int j0, int j1, int threads, int level, int first_row, int last_row)
+{
+    // Phase A's block above seam M starts step `level - 1` at M + 2 level - 1;
+    // a reader of the row below it is read by phase B, after its own last row.
+    if (first_row < last_row)
+        for (int t = 1; t < threads; ++t)
+            if (last_row == block_seam(j0, j1, threads, t) + 2 * level - 1)
+                return last_row - 1;
+    return last_row;
+}
+
 template <typename T, bool Lossy, int E>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
-                       int steps, T *scratch, BulkRowHook row_done, void *ctx)
+                       int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx)
 {
     static const BlockFn<T> fn = HAPTIC_PICK_ISA(BlockFn<T>, (block_avx512<T, Lossy, E>), (block_avx2<T, Lossy, E>),
                                                  (block_baseline<T, Lossy, E>));
     if (steps < 2 || steps > bulk_max_block_steps)
         throw std::invalid_argument("bulk_update_block: steps must be 2 .. " + std::to_string(bulk_max_block_steps));
-    fn(u, d, s, i0, i1, j0, j1, c, steps, scratch, row_done, ctx);
+    if (!block_threads_fit(j0, j1, threads))
+        throw std::invalid_argument("bulk_update_block: too few rows per thread");
+    if (j1 <= j0)
+        return;
+    threads = std::max(1, threads);
+    auto region = [&](int t) {
+        BlockRegion<T> r = block_scratch(scratch + std::ptrdiff_t(t) * bulk_block_scratch_rows * s, s);
+        r.steps = steps;
+        const int a = block_seam(j0, j1, threads, t), b = block_seam(j0, j1, threads, t + 1);
+        r.head = t > 0;
+        for (int k = 0; k < steps; ++k) {
+            r.lo[std::size_t(k)] = t > 0 ? a + 2 * k + 1 : a;
+            r.hi[std::size_t(k)] = t + 1 < threads ? b - 2 * k - 1 : b;
+        }
+        return r;
+    };
+    if (threads == 1) {
+        fn(u, d, s, i0, i1, j0, j1, c, region(0), row_done, ctx);
+        return;
+    }
+#pragma omp parallel num_threads(threads)
+    {
+        // A team smaller than asked (nested, or limited) runs several blocks per thread.
+        const int tid = omp_get_thread_num(), nth = omp_get_num_threads();
+        for (int t = tid; t < threads; t += nth)
+            fn(u, d, s, i0, i1, j0, j1, c, region(t), row_done, ctx);
+#pragma omp barrier
+        for (int t = tid; t + 1 < threads; t += nth) {
+            BlockRegion<T> b = region(t);
+            const BlockRegion<T> above = region(t + 1);
+            const int m = block_seam(j0, j1, threads, t + 1);
+            b.phase_b = true;
+            b.head = false;
+            b.above_start = above.start;
+            b.above_heads = above.heads;
+            for (int k = 0; k < steps; ++k) {
+                b.lo[std::size_t(k)] = m - 2 * k - 1;
+                b.hi[std::size_t(k)] = m + 2 * k + 1;
+            }
+            fn(u, d, s, i0, i1, j0, j1, c, b, row_done, ctx);
+        }
+    }
 }
 
 template <typename T, bool Lossy, int E>
@@ -279,9 +414,7 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
         // Contiguous blocks of rows: every block's prologue reads the rows
         // next to it before any sweep updates them in place.
         const int nth = omp_get_num_threads(), tid = omp_get_thread_num();
-        const int rows = j1 - j0;
-        const int a = j0 + int(std::ptrdiff_t(rows) * tid / nth);
-        const int b = j0 + int(std::ptrdiff_t(rows) * (tid + 1) / nth);
+        const int a = block_seam(j0, j1, nth, tid), b = block_seam(j0, j1, nth, tid + 1);
         T *mine = scratch + std::ptrdiff_t(tid) * bulk_scratch_rows * s;
         bulk_update<T, Lossy>(u, d, dn, s, i0, i1, a, b, c, mine, BulkPhase::prologue);
 #pragma omp barrier
@@ -295,7 +428,7 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
     template void bulk_update_threads<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                   \
                                             const BulkCoefficients<T> &, int, T *);                                    \
     template void bulk_update_block<T, L, 1>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
-                                             const BulkCoefficients<T> &, int, T *, BulkRowHook, void *);
+                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *);
 #define HAPTIC_LANES_INSTANCES(T, L)                                                                                   \
     template void bulk_update_lanes<T, L, 1>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
@@ -306,11 +439,11 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
     template void bulk_update_lanes<T, L, 8>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
     template void bulk_update_block<T, L, 2>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
-                                             const BulkCoefficients<T> &, int, T *, BulkRowHook, void *);              \
+                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *);         \
     template void bulk_update_block<T, L, 4>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
-                                             const BulkCoefficients<T> &, int, T *, BulkRowHook, void *);              \
+                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *);         \
     template void bulk_update_block<T, L, 8>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
-                                             const BulkCoefficients<T> &, int, T *, BulkRowHook, void *);
+                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *);
 HAPTIC_LANES_INSTANCES(float, false)
 HAPTIC_LANES_INSTANCES(float, true)
 HAPTIC_LANES_INSTANCES(double, false)

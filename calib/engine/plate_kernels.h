@@ -100,34 +100,50 @@ template <typename T, bool Lossy>
 void bulk_update(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
                  const BulkCoefficients<T> &c, T *scratch, BulkPhase phase = BulkPhase::both);
 
+// The first row of the t-th of `threads` contiguous blocks of rows [j0, j1)
+// (t = threads: j1): how every threaded loop over the plate's rows cuts them,
+// so each thread finds its rows in its own cache.
+int block_seam(int j0, int j1, int threads, int t);
+
 // The same, split into contiguous blocks of rows over `threads` OpenMP threads
 // (one fork/join; 1 thread runs inline). scratch: threads * bulk_scratch_rows rows.
 template <typename T, bool Lossy>
 void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int i0, int i1, int j0, int j1,
                          const BulkCoefficients<T> &c, int threads, T *scratch);
 
-// Several steps in one sweep, one thread (temporal blocking): each step's
-// rows run two behind the step before it, so a row's u and d are read from
-// memory once for all of them (where the grid outgrows the core's caches, a
-// step otherwise streams u and d in and u and d^{n+1} out). u is updated in
-// place by each step in turn; the increments of the levels between stay in
-// three-row rings in `scratch` and never reach memory. On entry u = u^n and
-// d = d^n; on return u = u^{n+steps} and d = d^{n+steps}; per step the
-// arithmetic is bulk_update's, term for term. The rows j0 - 1 and j1 and the
-// columns i0 - 1 and i1 are the boundary nodes of mirrored edges (zero in
-// every level), the rows and columns are all the unknowns. After step m
-// (1 .. steps - 1) has updated row j (and its ghosts),
-// `row_done(ctx, m, j)` is called: u rows j - 2 .. j hold u^{n+m} until the
-// next step reaches row j - 2 (the caller reads receivers of the levels
-// between there). steps: 2 .. bulk_max_block_steps; scratch:
+// Several steps in one sweep (temporal blocking): each step's rows run two
+// behind the step before it, so a row's u and d are read from memory once for
+// all of them (where the grid outgrows the core's caches, a step otherwise
+// streams u and d in and u and d^{n+1} out). u is updated in place by each
+// step in turn; the increments of the levels between stay in three-row rings
+// in `scratch` and never reach memory. On entry u = u^n and d = d^n; on
+// return u = u^{n+steps} and d = d^{n+steps}; per step the arithmetic is
+// bulk_update's, term for term. The rows j0 - 1 and j1 and the columns
+// i0 - 1 and i1 are the boundary nodes of mirrored edges (zero in every
+// level), the rows and columns are all the unknowns. `threads` > 1 cuts the
+// rows into blocks over an OpenMP team, one fork/join and one barrier per
+// call (plate_kernels.cpp: each block a trapezoid in (row, step), the rows
+// between done after the barrier); block_threads_fit() says whether the rows
+// allow it. After step m (1 .. steps - 1) has updated row j (and its ghosts),
+// `row_done(ctx, m, j)` is called, once per (m, j), from the thread that
+// updated it: u rows j - 2 .. j hold u^{n+m} until the next step reaches row
+// j - 2, except that a reader of rows j and j + 1 must wait for the call at
+// block_hook_row() (a block above a seam starts there, before the rows below
+// it are done). steps: 2 .. bulk_max_block_steps; scratch: threads *
 // bulk_block_scratch_rows rows.
 constexpr int bulk_max_block_steps = 4;
-constexpr int bulk_block_scratch_rows = 3 * bulk_max_block_steps + 3 * (bulk_max_block_steps - 1) + 1;
+constexpr int bulk_block_scratch_rows = 3 * bulk_max_block_steps + 3 * (bulk_max_block_steps - 1) +
+                                        2 * bulk_max_block_steps + 2 * (bulk_max_block_steps - 1) + 1;
+constexpr int block_min_rows_per_thread = 8 * bulk_max_block_steps;
+bool block_threads_fit(int j0, int j1, int threads);
+// The row after whose update by step m a reader of rows first_row ..
+// last_row (at most two) reads u^{n+m}.
+int block_hook_row(int j0, int j1, int threads, int m, int first_row, int last_row);
 using BulkRowHook = void (*)(void *ctx, int level, int row);
-// E > 1: lanes (bulk_update_lanes' layout), no row_done.
+// E > 1: lanes (bulk_update_lanes' layout), one thread, no row_done.
 template <typename T, bool Lossy, int E = 1>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t stride, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
-                       int steps, T *scratch, BulkRowHook row_done, void *ctx);
+                       int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx);
 
 // Several independent fields of one plate side by side (engine/lanes.h): node
 // (i, j) of lane l at u[j * stride + i * E + l], `stride` elements (a multiple

@@ -184,23 +184,35 @@ namespace {
 // and in every receiver between the steps and after them. A source drives the
 // last step of some blocks (a force in an earlier one refuses a block).
 template <typename T>
-void block_against_single(const Edges &e, const Loss &loss, int nx, int ny, int steps)
+void block_against_single(const Edges &e, const Loss &loss, int nx, int ny, int steps, int threads = 1)
 {
     auto op = make_plate(nx, ny, 0.01, e, 0.3, loss);
     const double k = 0.9 * op->max_time_step();
-    PlateEngine<T> blocked(op, k), single(op, k);
+    EngineOptions team;
+    team.threads = threads;
+    team.parallel_min_cells = 0;
+    PlateEngine<T> blocked(op, k, team), single(op, k);
     ASSERT_TRUE(blocked.can_block()) << name_of(e);
+    ASSERT_EQ(blocked.threaded(), threads > 1);
     const auto a = random_field(*op, 7), b = random_field(*op, 8);
     blocked.set_state(a, b);
     single.set_state(a, b);
     // Receivers on every row band, the last on the top edge's row of nodes.
     const double lx = nx * 0.01, ly = ny * 0.01;
-    for (auto [x, y] : {std::pair{0.31, 0.05}, {0.52, 0.5}, {0.013, 0.97}, {0.77, 0.993}, {0.5, 1.0}})
+    // With threads, one between every two rows and one on every row too
+    // (the blocks' seams and the rows between them).
+    std::vector<std::pair<double, double>> at = {{0.31, 0.05}, {0.52, 0.5}, {0.013, 0.97}, {0.77, 0.993}, {0.5, 1.0}};
+    for (int j = 1; threads > 1 && j < ny; ++j) {
+        at.emplace_back((0.1 + 0.8 * j / ny), (j + 0.5) / ny);
+        at.emplace_back((0.9 - 0.8 * j / ny), double(j) / ny);
+    }
+    const std::size_t R = at.size();
+    for (auto [x, y] : at)
         for (PlateEngine<T> *eng : {&blocked, &single})
             eng->add_receiver(x * lx, y * ly);
     const std::size_t src = blocked.add_source(0.4 * lx, 0.6 * ly);
     single.add_source(0.4 * lx, 0.6 * ly);
-    std::vector<double> between(5 * std::size_t(steps - 1));
+    std::vector<double> between(R * std::size_t(steps - 1));
     for (int n = 0; n < 600 / steps; ++n) {
         const double f = n % 3 == 0 ? std::sin(0.7 * n) : 0.0;
         blocked.set_source_force(src, f);
@@ -208,13 +220,13 @@ void block_against_single(const Edges &e, const Loss &loss, int nx, int ny, int 
         for (int m = 1; m < steps; ++m) {
             single.set_source_force(src, 0.0);
             single.step();
-            for (std::size_t r = 0; r < 5; ++r)
-                ASSERT_EQ(between[std::size_t(m - 1) * 5 + r], single.receiver_value(r))
+            for (std::size_t r = 0; r < R; ++r)
+                ASSERT_EQ(between[std::size_t(m - 1) * R + r], single.receiver_value(r))
                     << name_of(e) << " block " << n << " level " << m << " receiver " << r;
         }
         single.set_source_force(src, f);
         single.step();
-        for (std::size_t r = 0; r < 5; ++r)
+        for (std::size_t r = 0; r < R; ++r)
             ASSERT_EQ(blocked.receiver_value(r), single.receiver_value(r)) << name_of(e) << " block " << n;
     }
     EXPECT_EQ(blocked.steps_done(), single.steps_done());
@@ -239,6 +251,30 @@ TEST(EngineMirrorEdges, StepsInOneSweepAreStepsBitForBit)
         block_against_single<float>(Edges::all(EdgeKind::clamped), Loss{2.0, 5e-4}, 6, 4, steps);
         block_against_single<double>(Edges::all(EdgeKind::simply_supported), Loss{}, 5, 5, steps);
     }
+}
+
+// The same with the rows cut into blocks over a team (plate_kernels.cpp:
+// trapezoids, the rows between after a barrier): 2 and 3 threads, the
+// fewest rows a thread may take and more, receivers on every row.
+TEST(EngineMirrorEdges, StepsInOneSweepOnATeamAreStepsBitForBit)
+{
+    const int fewest = calib::engine::block_min_rows_per_thread;
+    for (int steps = 2; steps <= calib::engine::bulk_max_block_steps; ++steps)
+        for (int threads : {2, 3}) {
+            const Edges e{EdgeKind::clamped, EdgeKind::simply_supported, EdgeKind::simply_supported, EdgeKind::clamped};
+            block_against_single<float>(e, Loss{2.0, 5e-4}, 9, threads * fewest + 1, steps, threads);
+            block_against_single<double>(e, Loss{}, 8, threads * fewest + 7, steps, threads);
+            block_against_single<double>(Edges::all(EdgeKind::clamped), Loss{2.0, 5e-4}, 7, 2 * threads * fewest + 3,
+                                         steps, threads);
+        }
+    // Too few rows for the team: refused, and the engine says so beforehand.
+    auto op = make_plate(9, 2 * fewest - 1, 0.01, Edges::all(EdgeKind::clamped));
+    EngineOptions team;
+    team.threads = 2;
+    team.parallel_min_cells = 0;
+    PlateEngine<float> eng(op, 0.9 * op->max_time_step(), team);
+    EXPECT_FALSE(eng.can_block());
+    EXPECT_THROW(eng.step_block(2, nullptr), std::logic_error);
 }
 
 // A Simulation steps in blocks (bulk_update_block) wherever nothing but its
@@ -301,4 +337,34 @@ TEST(EngineMirrorEdges, ASimulationBlocksOnlyStepsWithNothingButReceiversBetween
             check(eng);
         }
     }
+}
+
+// The whole-field scan on a team (each thread its own rows, as the sweep cuts
+// them): a non-finite node in any row is found, and named first in row order.
+TEST(EngineMirrorEdges, AScanOnATeamFindsANonFiniteNodeInAnyRow)
+{
+    auto op = make_plate(9, 71, 0.01, Edges::all(EdgeKind::clamped));
+    EngineOptions team;
+    team.threads = 2;
+    team.parallel_min_cells = 0;
+    PlateEngine<float> eng(op, 0.9 * op->max_time_step(), team);
+    ASSERT_TRUE(eng.threaded());
+    const std::vector<double> zero(op->grid().node_count(), 0.0);
+    eng.set_state(zero, zero);
+    EXPECT_EQ(eng.non_finite_report(), "");
+    auto report_with = [&](std::vector<std::pair<int, int>> nodes) {
+        std::vector<double> field = zero;
+        for (auto [i, j] : nodes)
+            field[std::size_t(j) * 10 + std::size_t(i)] = std::nan("");
+        eng.set_state(field, zero);
+        return eng.non_finite_report();
+    };
+    for (int j = 1; j < 71; ++j) { // every row of unknowns
+        const std::string report = report_with({{4, j}});
+        EXPECT_NE(report.find("first at node (i, j) = (4, " + std::to_string(j) + ")"), std::string::npos)
+            << "row " << j << ": " << report;
+    }
+    const std::string two = report_with({{2, 70}, {4, 3}});
+    EXPECT_NE(two.find("first at node (i, j) = (4, 3)"), std::string::npos) << two;
+    EXPECT_NE(two.find("2 non-finite nodes"), std::string::npos) << two;
 }
