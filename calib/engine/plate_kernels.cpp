@@ -78,7 +78,8 @@ inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T 
         } else {
             lnext = lp[q];
         }
-        const T lap2 = ((lm[q] + lnext) + (l0[q - E] + l0[q + E])) - T(4) * l0[q];
+        // 4 l0 is exact: fused or not, the same bits.
+        const T lap2 = mul_add<Fma>(T(-4), l0[q], (lm[q] + lnext) + (l0[q - E] + l0[q + E]));
         T v;
         if constexpr (Lossy)
             v = mul_add<Fma>(g, d0[q], lap2);
@@ -185,12 +186,13 @@ BlockRegion<T> block_scratch(T *scratch, std::ptrdiff_t s)
     return r;
 }
 
-template <typename T, bool Lossy, int E, bool Fma>
+// Steps: r.steps as a constant, so the loop over the steps unrolls.
+template <typename T, bool Lossy, int E, bool Fma, int Steps>
 inline __attribute__((always_inline)) void block_body(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
                                                       const BulkCoefficients<T> &c, const BlockRegion<T> &r,
                                                       BulkRowHook row_done, void *ctx)
 {
-    const int steps = r.steps;
+    constexpr int steps = Steps;
     auto ring = [&](int k, int row) __attribute__((always_inline))->T *
     {
         if (!r.phase_b && row <= r.lo[k])
@@ -225,18 +227,32 @@ inline __attribute__((always_inline)) void block_body(T *u, T *d, std::ptrdiff_t
         }
     if (!r.phase_b)
         start_ring(0);
+    // Per step, the ring rows j - 1 and j and the increment row j of the row
+    // at hand, carried from row to row (a row then maps one ring row and two
+    // increment rows: at 81 x 81 a row is five vectors, and the mapping is
+    // not free).
+    std::array<T *, block_max> lm{}, l0{}, d0{};
     for (int t = t0; t < t1; ++t)
         for (int k = 0; k < steps; ++k) {
             const int j = t - 2 * k;
             if (j < r.lo[k] || j >= r.hi[k])
                 continue;
-            T *lp = ring(k, j + 1);
+            const std::size_t kk = std::size_t(k);
+            if (j == r.lo[k]) {
+                lm[kk] = ring(k, j - 1);
+                l0[kk] = ring(k, j);
+                d0[kk] = inc(k, j);
+            }
+            T *const lp = ring(k, j + 1), *const dp = inc(k, j + 1);
             if (r.phase_b && j + 1 >= r.hi[k] - 1)
-                output_row<T, Lossy, false, E, Fma>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring(k, j - 1),
-                                                    ring(k, j), lp, inc(k, j), inc(k, j + 1), inc(k + 1, j), i0, i1, c);
+                output_row<T, Lossy, false, E, Fma>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, lm[kk], l0[kk], lp,
+                                                    d0[kk], dp, inc(k + 1, j), i0, i1, c);
             else
-                output_row<T, Lossy, true, E, Fma>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, ring(k, j - 1),
-                                                   ring(k, j), lp, inc(k, j), inc(k, j + 1), inc(k + 1, j), i0, i1, c);
+                output_row<T, Lossy, true, E, Fma>(u + j * s, u + (j + 1) * s, u + (j + 2) * s, lm[kk], l0[kk], lp,
+                                                   d0[kk], dp, inc(k + 1, j), i0, i1, c);
+            lm[kk] = l0[kk];
+            l0[kk] = lp;
+            d0[kk] = dp;
             refresh_ghosts<T, E>(u, s, j, c.ghosts);
             if (k + 1 < steps) {
                 if (row_done)
@@ -282,7 +298,12 @@ using BlockFn = void (*)(T *, T *, std::ptrdiff_t, int, int, int, int, const Bul
     ATTR void NAME(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,         \
                    const BlockRegion<T> &r, BulkRowHook row_done, void *ctx)                                           \
     {                                                                                                                  \
-        block_body<T, Lossy, E, FMA>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx);                                    \
+        if (r.steps == 2)                                                                                              \
+            block_body<T, Lossy, E, FMA, 2>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx);                             \
+        else if (r.steps == 3)                                                                                         \
+            block_body<T, Lossy, E, FMA, 3>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx);                             \
+        else                                                                                                           \
+            block_body<T, Lossy, E, FMA, 4>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx);                             \
     }
 
 HAPTIC_BLOCK_VARIANT(block_baseline, , false)
@@ -323,7 +344,6 @@ void bulk_update(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int 
 }
 
 int block_seam(int j0, int j1, int threads, int t) { return j0 + int(std::ptrdiff_t(j1 - j0) * t / threads); }
-
 
 bool block_threads_fit(int j0, int j1, int threads)
 {
