@@ -229,12 +229,9 @@ void run_batch(const PlateOperator &op, double k, std::size_t check_interval, co
     for (std::size_t n = 0; n < total; ++n) {
         // Several steps in one sweep where nothing is due between them: no
         // force but in the last, no record or scan after any but the last.
-        std::size_t block = 1;
-        if (force(n) == T(0))
-            while (block < std::size_t(bulk_max_block_steps) && n + block < total && !record_due(n + block - 1) &&
-                   !scan_due(n + block - 1))
-                if (force(n + block++) != T(0))
-                    break;
+        const std::size_t block = block_length(
+            total - n, [&](std::size_t m) { return force(n + m) != T(0); },
+            [&](std::size_t m) { return record_due(n + m) || scan_due(n + m); });
         if (block > 1) {
             eng.step_block(int(block), force(n + block - 1));
             n += block - 1;

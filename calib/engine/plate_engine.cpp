@@ -111,7 +111,7 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     bulk_.nu1 = T(d * nu1);
     if (mirror_edges_)
         bulk_.ghosts = ghost_mirrors_of<T>(*op_);
-    if (!mirror_edges_)
+    else
         build_edge_rows();
     build_rigid_modes();
 }

@@ -57,12 +57,6 @@ class ThreadFlushDenormals {
     unsigned saved_ = 0;
 };
 
-// An effect with a state of its own (finger, exciter model; engine/effects/)
-// acts after the bulk, edge and source update on a few nodes, through the
-// point interface (point_field.h): it reads W from the new field u^{n+1} and
-// the increments d^{n+1} = u^{n+1} - u^n and d^n, and adds to u^{n+1}
-// (add_displacement(), which keeps d^{n+1} consistent). An engine without
-// extensions never calls a hook.
 // The ghost mirrors of a plate's clamped and supported edges (+1 clamped,
 // -1 supported; plate_kernels.h), for PlateEngine and the lanes; off where
 // the operator has a free edge.
@@ -76,6 +70,12 @@ GhostMirrors<T> ghost_mirrors_of(const PlateOperator &op)
     return {true, op.grid().nx, op.grid().ny, sign(e.left), sign(e.right), sign(e.bottom), sign(e.top)};
 }
 
+// An effect with a state of its own (finger, exciter model; engine/effects/)
+// acts after the bulk, edge and source update on a few nodes, through the
+// point interface (point_field.h): it reads W from the new field u^{n+1} and
+// the increments d^{n+1} = u^{n+1} - u^n and d^n, and adds to u^{n+1}
+// (add_displacement(), which keeps d^{n+1} consistent). An engine without
+// extensions never calls a hook.
 template <typename T>
 class PlateEngine final : public PointField {
   public:

@@ -61,8 +61,7 @@ std::string PlateEngine<T>::non_finite_report() const
     if (bulk_threads_ > 1) {
         // Each thread scans the rows its sweep updates (block_seam): a scan
         // on one thread pulls the other's rows into its cache, and the
-        // other's next sweep then waits for them (a fifth of a 330 x 330
-        // block of steps on two threads, docs/engine.md, "Speed").
+        // other's next sweep then waits for them (docs/engine.md, "Speed").
 #pragma omp parallel num_threads(bulk_threads_) reduction(|| : bad)
         {
             const int t = omp_get_thread_num(), n = omp_get_num_threads();

@@ -44,6 +44,17 @@ inline __attribute__((always_inline)) T ring_value(T lap_u, T d, const BulkCoeff
         return lap_u;
 }
 
+// The ring value at node q of row r1 (rows r0 and r2 around it, E lanes per
+// node): the one formula the sweep, the prologues and the blocks' first rows
+// share, so they round alike.
+template <typename T, bool Lossy, int E, bool Fma>
+inline __attribute__((always_inline)) T ring_at(const T *r0, const T *r1, const T *r2, const T *d1, int q,
+                                                const BulkCoefficients<T> &c)
+{
+    const T cc = r1[q];
+    return ring_value<T, Lossy, Fma>(((r1[q - E] - cc) + (r1[q + E] - cc)) + ((r0[q] - cc) + (r2[q] - cc)), d1[q], c);
+}
+
 // One output row j of the sweep: the ring row j+1 (fresh, or read when the
 // block's prologue made it), the second Laplacian from ring rows j-1, j,
 // j+1, then d^{n+1} and u^{n+1} in place. u row j is read (for the Laplacian
@@ -59,11 +70,8 @@ inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T 
     if constexpr (Fresh) {
         // The two columns beyond the row (band columns: never written by the sweep).
         for (int i : {i0 - 1, i1})
-            for (int q = i * E; q < (i + 1) * E; ++q) {
-                const T cc = u1[q];
-                lp[q] = ring_value<T, Lossy, Fma>(((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc)),
-                                                  dp[q], c);
-            }
+            for (int q = i * E; q < (i + 1) * E; ++q)
+                lp[q] = ring_at<T, Lossy, E, Fma>(u0, u1, u2, dp, q, c);
     }
     // q runs over the row's nodes and, within a node, its E lanes: the
     // horizontal neighbours are E elements away.
@@ -71,9 +79,7 @@ inline __attribute__((always_inline)) void output_row(T *__restrict u0, const T 
     for (int q = i0 * E; q < i1 * E; ++q) {
         T lnext;
         if constexpr (Fresh) {
-            const T cc = u1[q];
-            lnext = ring_value<T, Lossy, Fma>(((u1[q - E] - cc) + (u1[q + E] - cc)) + ((u0[q] - cc) + (u2[q] - cc)),
-                                              dp[q], c);
+            lnext = ring_at<T, Lossy, E, Fma>(u0, u1, u2, dp, q, c);
             lp[q] = lnext;
         } else {
             lnext = lp[q];
@@ -96,11 +102,8 @@ inline __attribute__((always_inline)) void ring_row(const T *__restrict r0, cons
                                                     int lo, int hi, const BulkCoefficients<T> &c)
 {
 #pragma omp simd
-    for (int q = lo * E; q < hi * E; ++q) {
-        const T cc = r1[q];
-        out[q] =
-            ring_value<T, Lossy, Fma>(((r1[q - E] - cc) + (r1[q + E] - cc)) + ((r0[q] - cc) + (r2[q] - cc)), d1[q], c);
-    }
+    for (int q = lo * E; q < hi * E; ++q)
+        out[q] = ring_at<T, Lossy, E, Fma>(r0, r1, r2, d1, q, c);
 }
 
 // Rows [a, b) of the block. The ring row (L(u) or W) is kept for three rows (a
@@ -162,6 +165,9 @@ inline __attribute__((always_inline)) void bulk_body(T *u, const T *d, T *dn, st
 // row) and the first two increment rows each step wrote (`head`), since the
 // block above has moved its own rows on since.
 constexpr int block_max = bulk_max_block_steps;
+// Where phase A's step k stops below seam m and starts above it.
+constexpr int below_seam(int m, int k) { return m - 2 * k - 1; }
+constexpr int above_seam(int m, int k) { return m + 2 * k + 1; }
 template <typename T>
 struct BlockRegion {
     int steps = 0;
@@ -186,7 +192,8 @@ BlockRegion<T> block_scratch(T *scratch, std::ptrdiff_t s)
     return r;
 }
 
-// Steps: r.steps as a constant, so the loop over the steps unrolls.
+// Steps: r.steps as a constant, so the loop over the steps can unroll
+// (measured within the noise of a run-time count at 81 x 81).
 template <typename T, bool Lossy, int E, bool Fma, int Steps>
 inline __attribute__((always_inline)) void block_body(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
                                                       const BulkCoefficients<T> &c, const BlockRegion<T> &r,
@@ -229,8 +236,7 @@ inline __attribute__((always_inline)) void block_body(T *u, T *d, std::ptrdiff_t
         start_ring(0);
     // Per step, the ring rows j - 1 and j and the increment row j of the row
     // at hand, carried from row to row (a row then maps one ring row and two
-    // increment rows: at 81 x 81 a row is five vectors, and the mapping is
-    // not free).
+    // increment rows; no difference was measured against mapping all six).
     std::array<T *, block_max> lm{}, l0{}, d0{};
     for (int t = t0; t < t1; ++t)
         for (int k = 0; k < steps; ++k) {
@@ -352,11 +358,11 @@ bool block_threads_fit(int j0, int j1, int threads)
 
 int block_hook_row(int j0, int j1, int threads, int level, int first_row, int last_row)
 {
-    // Phase A's block above seam M starts step `level - 1` at M + 2 level - 1;
-    // a reader of the row below it is read by phase B, after its own last row.
+    // Phase A's block above a seam starts step `level - 1` at above_seam; a
+    // reader of the row below it is read by phase B, after its own last row.
     if (first_row < last_row)
         for (int t = 1; t < threads; ++t)
-            if (last_row == block_seam(j0, j1, threads, t) + 2 * level - 1)
+            if (last_row == above_seam(block_seam(j0, j1, threads, t), level - 1))
                 return last_row - 1;
     return last_row;
 }
@@ -380,8 +386,8 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         const int a = block_seam(j0, j1, threads, t), b = block_seam(j0, j1, threads, t + 1);
         r.head = t > 0;
         for (int k = 0; k < steps; ++k) {
-            r.lo[std::size_t(k)] = t > 0 ? a + 2 * k + 1 : a;
-            r.hi[std::size_t(k)] = t + 1 < threads ? b - 2 * k - 1 : b;
+            r.lo[std::size_t(k)] = t > 0 ? above_seam(a, k) : a;
+            r.hi[std::size_t(k)] = t + 1 < threads ? below_seam(b, k) : b;
         }
         return r;
     };
@@ -405,8 +411,8 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
             b.above_start = above.start;
             b.above_heads = above.heads;
             for (int k = 0; k < steps; ++k) {
-                b.lo[std::size_t(k)] = m - 2 * k - 1;
-                b.hi[std::size_t(k)] = m + 2 * k + 1;
+                b.lo[std::size_t(k)] = below_seam(m, k);
+                b.hi[std::size_t(k)] = above_seam(m, k);
             }
             fn(u, d, s, i0, i1, j0, j1, c, b, row_done, ctx);
         }

@@ -140,6 +140,22 @@ bool block_threads_fit(int j0, int j1, int threads);
 // last_row (at most two) reads u^{n+m}.
 int block_hook_row(int j0, int j1, int threads, int m, int first_row, int last_row);
 using BulkRowHook = void (*)(void *ctx, int level, int row);
+// How many steps the next sweep takes (1 .. bulk_max_block_steps, at most
+// `left`): steps m = 0, 1, ... join while no step but the last has a force
+// (`forced(m)`, asked once each, in order) and nothing is due after any but
+// the last (`due(m)`: a record, a lattice frame, a scan). Simulation::run
+// and the lanes.
+template <typename Forced, typename Due>
+std::size_t block_length(std::size_t left, Forced &&forced, Due &&due)
+{
+    if (forced(0))
+        return 1;
+    std::size_t b = 1;
+    while (b < std::size_t(bulk_max_block_steps) && b < left && !due(b - 1))
+        if (forced(b++))
+            break;
+    return b;
+}
 // E > 1: lanes (bulk_update_lanes' layout), one thread, no row_done.
 template <typename T, bool Lossy, int E = 1>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t stride, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,

@@ -237,15 +237,14 @@ void Simulation::run(std::size_t steps)
             std::vector<double> between(blocks ? std::size_t(bulk_max_block_steps - 1) * traces_.size() : 0);
             for (std::size_t n = 0; n < steps;) {
                 const std::size_t now = e->steps_done();
+                // The forces set last are those of the block's last step.
                 std::size_t block = 1;
-                if (!set_forces(now) && blocks)
-                    while (block < std::size_t(bulk_max_block_steps) && n + block < steps &&
-                           !due_after(now + block - 1)) {
-                        const bool forced = set_forces(now + block); // the forces of the block's last step
-                        ++block;
-                        if (forced)
-                            break;
-                    }
+                if (blocks)
+                    block = block_length(
+                        steps - n, [&](std::size_t m) { return set_forces(now + m); },
+                        [&](std::size_t m) { return due_after(now + m); });
+                else
+                    set_forces(now);
                 if constexpr (blockable) {
                     if (block > 1) {
                         e->step_block(int(block), between.data());
