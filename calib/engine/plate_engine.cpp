@@ -222,10 +222,20 @@ std::size_t PlateEngine<T>::add_receiver(double x_m, double y_m)
 template <typename T>
 double PlateEngine<T>::receiver_value(std::size_t r) const
 {
+    return receiver_value(r, BlockBelow{});
+}
+
+template <typename T>
+double PlateEngine<T>::receiver_value(std::size_t r, const BlockBelow &below) const
+{
     const PointTap &tap = receivers_[r];
+    const T *copy = static_cast<const T *>(below.rows);
     double v = 0;
-    for (std::size_t n = 0; n < tap.offset.size(); ++n)
-        v += double(tap.weight[n]) * double(u_[tap.offset[n]]);
+    for (std::size_t n = 0; n < tap.offset.size(); ++n) {
+        const std::ptrdiff_t o = tap.offset[n];
+        const T x = o >= below.first && o < below.last ? copy[o - below.first] : u_[o];
+        v += double(tap.weight[n]) * double(x);
+    }
     return v;
 }
 
@@ -289,22 +299,16 @@ void PlateEngine<T>::apply_sources()
 template <typename T>
 void PlateEngine<T>::build_block_reads()
 {
-    for (int m = 1; m < bulk_max_block_steps; ++m) {
-        BlockReads &br = block_reads_[std::size_t(m)];
-        std::vector<int> row(receivers_.size());
-        br.first.assign(std::size_t(ny_) + 2, 0);
-        for (std::size_t r = 0; r < receivers_.size(); ++r) {
-            const auto [first, last] = receiver_rows_[r];
-            row[r] = block_hook_row(1, ny_, bulk_threads_, m, first, last);
-            ++br.first[std::size_t(row[r]) + 1];
-        }
-        for (std::size_t j = 1; j < br.first.size(); ++j)
-            br.first[j] += br.first[j - 1];
-        br.receiver.assign(receivers_.size(), 0);
-        std::vector<std::uint32_t> next(br.first.begin(), br.first.end() - 1);
-        for (std::size_t r = 0; r < receivers_.size(); ++r)
-            br.receiver[next[std::size_t(row[r])]++] = std::uint32_t(r);
-    }
+    BlockReads &br = block_reads_;
+    br.first.assign(std::size_t(ny_) + 2, 0);
+    for (const auto &rows : receiver_rows_)
+        ++br.first[std::size_t(rows.second) + 1];
+    for (std::size_t j = 1; j < br.first.size(); ++j)
+        br.first[j] += br.first[j - 1];
+    br.receiver.assign(receivers_.size(), 0);
+    std::vector<std::uint32_t> next(br.first.begin(), br.first.end() - 1);
+    for (std::size_t r = 0; r < receivers_.size(); ++r)
+        br.receiver[next[std::size_t(receiver_rows_[r].second)]++] = std::uint32_t(r);
     block_reads_stale_ = false;
 }
 
@@ -318,20 +322,20 @@ void PlateEngine<T>::step_block(int steps, double *between)
     if (block_reads_stale_)
         build_block_reads();
     // Between the steps, each receiver is read once its step has updated the
-    // rows it reads (the next step is two rows behind; block_hook_row); a
-    // receiver reads unknowns only (point_weights drops fixed nodes), rows
-    // 1 .. ny - 1, all of which every step updates. Each (level, row) is
-    // reported once, so the threads write disjoint entries.
+    // last row it reads (the next step is two rows behind); a receiver reads
+    // unknowns only (point_weights drops fixed nodes), rows 1 .. ny - 1, all
+    // of which every step updates. Each (level, row) is reported once, so the
+    // threads write disjoint entries.
     struct Reads {
         const PlateEngine *engine;
         double *out;
     } reads{this, between};
-    auto row_done = [](void *ctx, int level, int row) {
+    auto row_done = [](void *ctx, int level, int row, const BlockBelow &below) {
         const Reads &r = *static_cast<const Reads *>(ctx);
-        const BlockReads &br = r.engine->block_reads_[std::size_t(level)];
+        const BlockReads &br = r.engine->block_reads_;
         double *out = r.out + std::size_t(level - 1) * r.engine->receivers_.size();
         for (std::uint32_t i = br.first[std::size_t(row)]; i < br.first[std::size_t(row) + 1]; ++i)
-            out[br.receiver[i]] = r.engine->receiver_value(br.receiver[i]);
+            out[br.receiver[i]] = r.engine->receiver_value(br.receiver[i], below);
     };
     if (lossy_)
         bulk_update_block<T, true>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,

@@ -186,13 +186,15 @@ class PlateEngine final : public PointField {
     template <bool Lossy>
     void step_impl();
     void apply_sources();
-    // The receivers step_block reads between its steps: for level m, those
-    // read once row j is updated are receiver[first[j] .. first[j + 1])
-    // (block_hook_row). Rebuilt when a receiver is added.
+    // The receivers step_block reads between its steps: those read once row
+    // j is updated (the last row each reads) are receiver[first[j] ..
+    // first[j + 1]). Rebuilt when a receiver is added.
     struct BlockReads {
         std::vector<std::uint32_t> first, receiver;
     };
-    std::array<BlockReads, bulk_max_block_steps> block_reads_;
+    BlockReads block_reads_;
+    // receiver_value with the rows under a block's own read from its copy.
+    double receiver_value(std::size_t receiver, const BlockBelow &below) const;
     bool block_reads_stale_ = true;
     std::vector<std::pair<int, int>> receiver_rows_; // the first and last row each receiver reads
     void build_block_reads();

@@ -44,12 +44,14 @@ struct GhostMirrors {
 // The ghosts that mirror row j of u (E lanes per node, lanes.h): its two,
 // and the ghost row below (j = 1) or above (j = ny - 1) the plate. The sweep
 // calls it for each row it has just updated.
+// `row`: where row j of u is held (a block's copy of a neighbour's row: see
+// bulk_update_block); the ghost rows are u's.
 template <typename T, int E = 1>
-inline __attribute__((always_inline)) void refresh_ghosts(T *u, std::ptrdiff_t stride, int j, const GhostMirrors<T> &m)
+inline __attribute__((always_inline)) void refresh_ghosts(T *u, std::ptrdiff_t stride, int j, const GhostMirrors<T> &m,
+                                                          T *row)
 {
     if (!m.on)
         return;
-    T *row = u + j * stride;
     for (int l = 0; l < E; ++l) {
         row[-E + l] = m.left * row[E + l];
         row[(m.nx + 1) * E + l] = m.right * row[(m.nx - 1) * E + l];
@@ -60,6 +62,11 @@ inline __attribute__((always_inline)) void refresh_ghosts(T *u, std::ptrdiff_t s
     if (j == m.ny - 1)
         for (int q = -E; q < (m.nx + 2) * E; ++q)
             u[(m.ny + 1) * stride + q] = m.top * row[q];
+}
+template <typename T, int E = 1>
+inline __attribute__((always_inline)) void refresh_ghosts(T *u, std::ptrdiff_t stride, int j, const GhostMirrors<T> &m)
+{
+    refresh_ghosts<T, E>(u, stride, j, m, u + j * stride);
 }
 
 // Every ghost of u: the whole pass, for a field set or changed next to an
@@ -122,24 +129,27 @@ void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int
 // i0 - 1 and i1 are the boundary nodes of mirrored edges (zero in every
 // level), the rows and columns are all the unknowns. `threads` > 1 cuts the
 // rows into blocks over an OpenMP team, one fork/join and one barrier per
-// call (plate_kernels.cpp: each block a trapezoid in (row, step), the rows
-// between done after the barrier); block_threads_fit() says whether the rows
-// allow it. After step m (1 .. steps - 1) has updated row j (and its ghosts),
-// `row_done(ctx, m, j)` is called, once per (m, j), from the thread that
-// updated it: u rows j - 2 .. j hold u^{n+m} until the next step reaches row
-// j - 2, except that a reader of rows j and j + 1 must wait for the call at
-// block_hook_row() (a block above a seam starts there, before the rows below
-// it are done). steps: 2 .. bulk_max_block_steps; scratch: threads *
+// call (plate_kernels.cpp: each block copies the 2 steps rows of u and d
+// beyond each of its seams, then, after the barrier, runs a trapezoid in
+// (row, step) that reaches into those copies far enough to finish its own
+// rows); block_threads_fit() says whether the rows allow it. After step m
+// (1 .. steps - 1) has updated row j (and its ghosts), `row_done(ctx, m, j,
+// below)` is called, once per (m, j), from the thread that updated it: u rows
+// j - 2 .. j hold u^{n+m} until the next step reaches row j - 2, where the
+// u offsets in [below.first, below.last) are read at below.rows + (offset -
+// below.first) (the block's copy of the rows under its lowest: their u^{n+m}
+// is there, not in u). steps: 2 .. bulk_max_block_steps; scratch: threads *
 // bulk_block_scratch_rows rows.
 constexpr int bulk_max_block_steps = 4;
-constexpr int bulk_block_scratch_rows = 3 * bulk_max_block_steps + 3 * (bulk_max_block_steps - 1) +
-                                        2 * bulk_max_block_steps + 2 * (bulk_max_block_steps - 1) + 1;
+constexpr int bulk_block_scratch_rows =
+    3 * bulk_max_block_steps + 3 * (bulk_max_block_steps - 1) + 2 * bulk_max_block_steps + 1 + 8 * bulk_max_block_steps;
 constexpr int block_min_rows_per_thread = 8 * bulk_max_block_steps;
 bool block_threads_fit(int j0, int j1, int threads);
-// The row after whose update by step m a reader of rows first_row ..
-// last_row (at most two) reads u^{n+m}.
-int block_hook_row(int j0, int j1, int threads, int m, int first_row, int last_row);
-using BulkRowHook = void (*)(void *ctx, int level, int row);
+struct BlockBelow {
+    const void *rows = nullptr; // T
+    std::ptrdiff_t first = 0, last = 0;
+};
+using BulkRowHook = void (*)(void *ctx, int level, int row, const BlockBelow &below);
 // How many steps the next sweep takes (1 .. bulk_max_block_steps, at most
 // `left`): steps m = 0, 1, ... join while no step but the last has a force
 // (`forced(m)`, asked once each, in order) and nothing is due after any but

@@ -12,10 +12,12 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <map>
 #include <string>
 #include <utility>
+#include <vector>
 
 using namespace plate_test;
 
@@ -254,8 +256,9 @@ TEST(EngineMirrorEdges, StepsInOneSweepAreStepsBitForBit)
 }
 
 // The same with the rows cut into blocks over a team (plate_kernels.cpp:
-// trapezoids, the rows between after a barrier): 2 and 3 threads, the
-// fewest rows a thread may take and more, receivers on every row.
+// overlapping trapezoids, the rows beyond each seam on copies): 2 and 3
+// threads, the fewest rows a thread may take and more, receivers on every
+// row and between every two (those across a seam read the copy below).
 TEST(EngineMirrorEdges, StepsInOneSweepOnATeamAreStepsBitForBit)
 {
     const int fewest = calib::engine::block_min_rows_per_thread;
@@ -275,6 +278,46 @@ TEST(EngineMirrorEdges, StepsInOneSweepOnATeamAreStepsBitForBit)
     PlateEngine<float> eng(op, 0.9 * op->max_time_step(), team);
     EXPECT_FALSE(eng.can_block());
     EXPECT_THROW(eng.step_block(2, nullptr), std::logic_error);
+}
+
+// The kernel's promise to its readers (plate_kernels.h): after each step but
+// the last, every row is reported once, by one thread, whatever the team; a
+// block reports only its own rows, not the rows beyond its seams it updates
+// on its copies.
+namespace {
+struct Reports {
+    int rows = 0;
+    std::vector<std::atomic<int>> count; // (level, row)
+    explicit Reports(std::size_t n) : count(n) {}
+};
+void count_report(void *ctx, int level, int row, const calib::engine::BlockBelow &)
+{
+    Reports &r = *static_cast<Reports *>(ctx);
+    ++r.count[std::size_t(level * r.rows + row)];
+}
+} // namespace
+
+TEST(EngineMirrorEdges, ATeamReportsEachRowOfEachLevelBetweenOnce)
+{
+    using namespace calib::engine;
+    const int nx = 9;
+    const std::ptrdiff_t s = 16; // columns -2 .. 13
+    for (int threads : {1, 2, 3})
+        for (int steps = 2; steps <= bulk_max_block_steps; ++steps) {
+            const int ny = threads * block_min_rows_per_thread + 5;
+            std::vector<float> u(std::size_t((ny + 6) * s)), d(u.size()),
+                scratch(std::size_t((threads * bulk_block_scratch_rows + 1) * s));
+            const BulkCoefficients<float> c{1.0f, 0.01f, 0.0f, {}};
+            Reports r(std::size_t(steps * (ny + 1)));
+            r.rows = ny + 1;
+            bulk_update_block<float, false>(u.data() + 3 * s + 2, d.data() + 3 * s + 2, s, 1, nx, 1, ny, c, steps,
+                                            threads, scratch.data() + 2, count_report, &r);
+            for (int level = 0; level < steps; ++level)
+                for (int row = 0; row <= ny; ++row)
+                    ASSERT_EQ(r.count[std::size_t(level * r.rows + row)].load(),
+                              level > 0 && row >= 1 && row < ny ? 1 : 0)
+                        << threads << " threads, " << steps << " steps, level " << level << " row " << row;
+        }
 }
 
 // A Simulation steps in blocks (bulk_update_block) wherever nothing but its
