@@ -309,6 +309,9 @@ void PlateEngine<T>::build_block_reads()
     std::vector<std::uint32_t> next(br.first.begin(), br.first.end() - 1);
     for (std::size_t r = 0; r < receivers_.size(); ++r)
         br.receiver[next[std::size_t(receiver_rows_[r].second)]++] = std::uint32_t(r);
+    br.rows.assign(std::size_t(ny_) + 1, 0);
+    for (std::size_t j = 0; j < br.rows.size(); ++j)
+        br.rows[j] = br.first[j + 1] > br.first[j];
     block_reads_stale_ = false;
 }
 
@@ -339,10 +342,10 @@ void PlateEngine<T>::step_block(int steps, double *between)
     };
     if (lossy_)
         bulk_update_block<T, true>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
-                                   &reads);
+                                   &reads, block_reads_.rows.data());
     else
         bulk_update_block<T, false>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
-                                    &reads);
+                                    &reads, block_reads_.rows.data());
     // inc_ holds d^{n+steps}, the newest increment, as after as many step()s.
     apply_sources();
     steps_ += std::size_t(steps);

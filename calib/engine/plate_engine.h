@@ -191,6 +191,7 @@ class PlateEngine final : public PointField {
     // first[j + 1]). Rebuilt when a receiver is added.
     struct BlockReads {
         std::vector<std::uint32_t> first, receiver;
+        std::vector<std::uint8_t> rows; // 1 where a receiver's last row is (the kernel's hook_rows)
     };
     BlockReads block_reads_;
     // receiver_value with the rows under a block's own read from its copy.

@@ -9,9 +9,6 @@
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
-#include <chrono>
-#include <cstdio>
-#include <atomic>
 
 namespace calib::engine {
 
@@ -201,7 +198,7 @@ BlockRegion<T> block_scratch(T *scratch, std::ptrdiff_t s)
 template <typename T, bool Lossy, int E, bool Fma, int Steps>
 inline __attribute__((always_inline)) void block_body(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1,
                                                       const BulkCoefficients<T> &c, const BlockRegion<T> &r,
-                                                      BulkRowHook row_done, void *ctx)
+                                                      BulkRowHook row_done, void *ctx, const std::uint8_t *hook_rows)
 {
     constexpr int steps = Steps;
     // Where row `row` of u and of d^n is held: beyond the block's own rows,
@@ -268,7 +265,7 @@ inline __attribute__((always_inline)) void block_body(T *u, T *d, std::ptrdiff_t
             d0[kk] = dp;
             refresh_ghosts<T, E>(u, s, j, c.ghosts, uj);
             if (k + 1 < steps) {
-                if (row_done && j >= r.a && j < r.b)
+                if (row_done && j >= r.a && j < r.b && (!hook_rows || hook_rows[j]))
                     row_done(ctx, k + 1, j, below);
                 // Step k + 1's first two Laplacian rows, once u^{n+k+1} rows
                 // lo - 2 .. lo + 1 are there (and before its first row).
@@ -304,19 +301,19 @@ HAPTIC_BULK_VARIANT(bulk_avx2, HAPTIC_ISA_AVX2, true)
 
 template <typename T>
 using BlockFn = void (*)(T *, T *, std::ptrdiff_t, int, int, int, int, const BulkCoefficients<T> &,
-                         const BlockRegion<T> &, BulkRowHook, void *);
+                         const BlockRegion<T> &, BulkRowHook, void *, const std::uint8_t *);
 
 #define HAPTIC_BLOCK_VARIANT(NAME, ATTR, FMA)                                                                          \
     template <typename T, bool Lossy, int E>                                                                           \
     ATTR void NAME(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,         \
-                   const BlockRegion<T> &r, BulkRowHook row_done, void *ctx)                                           \
+                   const BlockRegion<T> &r, BulkRowHook row_done, void *ctx, const std::uint8_t *rows)                 \
     {                                                                                                                  \
         if (r.steps == 2)                                                                                              \
-            block_body<T, Lossy, E, FMA, 2>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx);                             \
+            block_body<T, Lossy, E, FMA, 2>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, rows);                       \
         else if (r.steps == 3)                                                                                         \
-            block_body<T, Lossy, E, FMA, 3>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx);                             \
+            block_body<T, Lossy, E, FMA, 3>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, rows);                       \
         else                                                                                                           \
-            block_body<T, Lossy, E, FMA, 4>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx);                             \
+            block_body<T, Lossy, E, FMA, 4>(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, rows);                       \
     }
 
 HAPTIC_BLOCK_VARIANT(block_baseline, , false)
@@ -365,7 +362,8 @@ bool block_threads_fit(int j0, int j1, int threads)
 
 template <typename T, bool Lossy, int E>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
-                       int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx)
+                       int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx,
+                       const std::uint8_t *hook_rows)
 {
     static const BlockFn<T> fn = HAPTIC_PICK_ISA(BlockFn<T>, (block_avx512<T, Lossy, E>), (block_avx2<T, Lossy, E>),
                                                  (block_baseline<T, Lossy, E>));
@@ -393,7 +391,7 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         return r;
     };
     if (threads == 1) {
-        fn(u, d, s, i0, i1, j0, j1, c, region(0), row_done, ctx);
+        fn(u, d, s, i0, i1, j0, j1, c, region(0), row_done, ctx, hook_rows);
         return;
     }
     // Rows `first` .. first + 2 steps - 1 of u and d to `u_copy`, `d_copy`
@@ -434,7 +432,7 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
                 if (p)
                     for (std::ptrdiff_t o = i0 - 2; o < 2 * steps * s; o += 64 / std::ptrdiff_t(sizeof(T)))
                         __builtin_prefetch(p + o, 0, 2);
-            fn(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx);
+            fn(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, hook_rows);
         }
     }
 }
@@ -474,7 +472,8 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
     template void bulk_update_threads<T, L>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                   \
                                             const BulkCoefficients<T> &, int, T *);                                    \
     template void bulk_update_block<T, L, 1>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
-                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *);
+                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
+                                             const std::uint8_t *);
 #define HAPTIC_LANES_INSTANCES(T, L)                                                                                   \
     template void bulk_update_lanes<T, L, 1>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
@@ -485,11 +484,14 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
     template void bulk_update_lanes<T, L, 8>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
     template void bulk_update_block<T, L, 2>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
-                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *);         \
+                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
+                                             const std::uint8_t *);                                                    \
     template void bulk_update_block<T, L, 4>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
-                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *);         \
+                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
+                                             const std::uint8_t *);                                                    \
     template void bulk_update_block<T, L, 8>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
-                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *);
+                                             const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
+                                             const std::uint8_t *);
 HAPTIC_LANES_INSTANCES(float, false)
 HAPTIC_LANES_INSTANCES(float, true)
 HAPTIC_LANES_INSTANCES(double, false)

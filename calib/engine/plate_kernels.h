@@ -28,6 +28,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 namespace calib::engine {
 
@@ -134,7 +135,9 @@ void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int
 // (row, step) that reaches into those copies far enough to finish its own
 // rows); block_threads_fit() says whether the rows allow it. After step m
 // (1 .. steps - 1) has updated row j (and its ghosts), `row_done(ctx, m, j,
-// below)` is called, once per (m, j), from the thread that updated it: u rows
+// below)` is called, once per (m, j), from the thread that updated it (only
+// for the rows j with hook_rows[j] != 0, when hook_rows is given: a call is
+// a spill of the vector registers, 3-5 % of a block at 81 x 81): u rows
 // j - 2 .. j hold u^{n+m} until the next step reaches row j - 2, where the
 // u offsets in [below.first, below.last) are read at below.rows + (offset -
 // below.first) (the block's copy of the rows under its lowest: their u^{n+m}
@@ -169,7 +172,8 @@ std::size_t block_length(std::size_t left, Forced &&forced, Due &&due)
 // E > 1: lanes (bulk_update_lanes' layout), one thread, no row_done.
 template <typename T, bool Lossy, int E = 1>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t stride, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
-                       int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx);
+                       int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx,
+                       const std::uint8_t *hook_rows = nullptr);
 
 // Several independent fields of one plate side by side (engine/lanes.h): node
 // (i, j) of lane l at u[j * stride + i * E + l], `stride` elements (a multiple

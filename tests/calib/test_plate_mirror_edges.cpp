@@ -283,7 +283,7 @@ TEST(EngineMirrorEdges, StepsInOneSweepOnATeamAreStepsBitForBit)
 // The kernel's promise to its readers (plate_kernels.h): after each step but
 // the last, every row is reported once, by one thread, whatever the team; a
 // block reports only its own rows, not the rows beyond its seams it updates
-// on its copies.
+// on its copies; given hook_rows, only the rows it marks.
 namespace {
 struct Reports {
     int rows = 0;
@@ -302,22 +302,28 @@ TEST(EngineMirrorEdges, ATeamReportsEachRowOfEachLevelBetweenOnce)
     using namespace calib::engine;
     const int nx = 9;
     const std::ptrdiff_t s = 16; // columns -2 .. 13
-    for (int threads : {1, 2, 3})
-        for (int steps = 2; steps <= bulk_max_block_steps; ++steps) {
-            const int ny = threads * block_min_rows_per_thread + 5;
-            std::vector<float> u(std::size_t((ny + 6) * s)), d(u.size()),
-                scratch(std::size_t((threads * bulk_block_scratch_rows + 1) * s));
-            const BulkCoefficients<float> c{1.0f, 0.01f, 0.0f, {}};
-            Reports r(std::size_t(steps * (ny + 1)));
-            r.rows = ny + 1;
-            bulk_update_block<float, false>(u.data() + 3 * s + 2, d.data() + 3 * s + 2, s, 1, nx, 1, ny, c, steps,
-                                            threads, scratch.data() + 2, count_report, &r);
-            for (int level = 0; level < steps; ++level)
-                for (int row = 0; row <= ny; ++row)
-                    ASSERT_EQ(r.count[std::size_t(level * r.rows + row)].load(),
-                              level > 0 && row >= 1 && row < ny ? 1 : 0)
-                        << threads << " threads, " << steps << " steps, level " << level << " row " << row;
-        }
+    for (bool marked : {false, true})
+        for (int threads : {1, 2, 3})
+            for (int steps = 2; steps <= bulk_max_block_steps; ++steps) {
+                const int ny = threads * block_min_rows_per_thread + 5;
+                std::vector<std::uint8_t> rows(std::size_t(ny + 1));
+                for (std::size_t j = 0; j < rows.size(); ++j)
+                    rows[j] = j % 3 == 1 || j == 2; // rows 1, 2, 4, 7, ...: both sides of every seam somewhere
+                std::vector<float> u(std::size_t((ny + 6) * s)), d(u.size()),
+                    scratch(std::size_t((threads * bulk_block_scratch_rows + 1) * s));
+                const BulkCoefficients<float> c{1.0f, 0.01f, 0.0f, {}};
+                Reports r(std::size_t(steps * (ny + 1)));
+                r.rows = ny + 1;
+                bulk_update_block<float, false>(u.data() + 3 * s + 2, d.data() + 3 * s + 2, s, 1, nx, 1, ny, c, steps,
+                                                threads, scratch.data() + 2, count_report, &r,
+                                                marked ? rows.data() : nullptr);
+                for (int level = 0; level < steps; ++level)
+                    for (int row = 0; row <= ny; ++row)
+                        ASSERT_EQ(r.count[std::size_t(level * r.rows + row)].load(),
+                                  level > 0 && row >= 1 && row < ny && (!marked || rows[std::size_t(row)]) ? 1 : 0)
+                            << threads << " threads, " << steps << " steps, level " << level << " row " << row
+                            << (marked ? ", every third row marked" : "");
+            }
 }
 
 // A Simulation steps in blocks (bulk_update_block) wherever nothing but its
