@@ -16,6 +16,8 @@
 #include "engine/lanes.h"
 #include "engine/plate_kernels.h"
 #include "engine/simulation.h"
+#include "io/heap.h"
+#include "pipeline/placement/site_recording.h"
 #include "physics/material.h"
 
 #include <benchmark/benchmark.h>
@@ -30,6 +32,9 @@
 using namespace calib::engine;
 
 namespace {
+
+// The heap as calibgen keeps it (io/heap.h), for every benchmark here.
+[[maybe_unused]] const bool heap_kept = (calib::io::keep_freed_heap(), true);
 
 constexpr double side_m = 0.7;
 
@@ -227,7 +232,54 @@ void BM_SimulateLanes(benchmark::State &state)
     state.SetLabel(bulk_update_isa());
 }
 
+// The placement's site recordings (pipeline/placement/site_recording.h: a
+// band-limited impulse, the field copied every M-th step, the sites read off
+// the copies) of 4 emitters in lanes on one thread, at `count` sites against
+// one site, at Fig. 7's search rate. Reports x_one_site: the issue's "a
+// simulation that records sites within 1.2x one that does not".
+void BM_RecordSites(benchmark::State &state)
+{
+    using calib::pipeline::Point;
+    const int n = int(state.range(0)), count = int(state.range(2));
+    const std::size_t steps = std::size_t(state.range(1));
+    SimulationOptions o;
+    o.engine.threads = 1;
+    const auto op = std::make_shared<const PlateOperator>(fig7_plate(), Grid{n, n, side_m / n});
+    const auto rec = calib::pipeline::site_recording_options(kirchhoff_time_step(*op, o), 2866.0);
+    std::vector<Point> sources, sites;
+    for (int l = 0; l < 4; ++l)
+        sources.push_back({0.2 + 0.03 * l, 0.25});
+    for (int i = 0; i < count; ++i) { // spread over the plate (golden-ratio sequences)
+        const double a = i * 0.6180339887, b = i * 0.7548776662;
+        sites.push_back({0.03 + 0.64 * (a - std::floor(a)), 0.03 + 0.64 * (b - std::floor(b))});
+    }
+    const std::vector<Point> one{sites.front()};
+    auto run = [&](const std::vector<Point> &at) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const auto r = calib::pipeline::record_sites_of(op, o, sources, at, steps, rec, {});
+        benchmark::DoNotOptimize(r.back().traces.back().back());
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    };
+    double best_sites = 1e300, best_one = 1e300;
+    for (auto _ : state) {
+        best_sites = std::min(best_sites, run(sites));
+        best_one = std::min(best_one, run(one));
+    }
+    state.counters["x_one_site"] = best_sites / best_one;
+    state.counters["decimation"] = double(rec.decimation);
+    state.counters["sites_ms"] = best_sites * 1e3;
+    state.counters["one_site_ms"] = best_one * 1e3;
+}
+
 } // namespace
+
+// n, steps, sites: Fig. 7's grid, window and candidate sites; the issue's plate.
+BENCHMARK(BM_RecordSites)
+    ->Args({81, 14300, 464})
+    ->Args({330, 4000, 464})
+    ->Iterations(3)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // n, steps, width.
 BENCHMARK(BM_SimulateLanes)

@@ -1,20 +1,13 @@
 // calibgen: virtual calibration of time-reversal haptic plates.
 #include "app/commands.h"
+#include "io/heap.h"
 
 #include <cstdio>
 #include <exception>
-#include <malloc.h>
 
 int main(int argc, char **argv)
 {
-    // The pipeline frees and allocates buffers of the same sizes over and
-    // over (each simulation's recordings, their resampled copies); glibc
-    // gives the top of its heap back to the kernel past 128 KB free, and
-    // every page is then faulted in again when the next buffer takes it: on
-    // a paravirtualised machine that was a quarter of a Fig. 7 calibration
-    // (docs/BENCHMARKS.md, "Overlapping trapezoids"). Up to 256 MB free stay
-    // in the heap; the peak is what it was.
-    mallopt(M_TRIM_THRESHOLD, 256 << 20);
+    calib::io::keep_freed_heap();
     CLI::App app{"calibgen " HAPTIC_VERSION ": simulate a plate and write time-reversal drive tables"};
     app.require_subcommand(1);
     int exit_code = 0;

@@ -1,0 +1,17 @@
+// The process's heap policy: calibgen's main and the benchmarks that time
+// what calibgen runs.
+#pragma once
+
+namespace calib::io {
+
+// The pipeline frees and allocates buffers of the same sizes over and over
+// (each simulation's recordings and field copies, their resampled copies);
+// glibc gives the top of its heap back to the kernel once 128 KB of it are
+// free, and every page is faulted in again when the next buffer takes it. On
+// a paravirtualised machine that was a quarter of a Fig. 7 calibration and
+// half again the cost of a placement simulation (docs/BENCHMARKS.md,
+// "Overlapping trapezoids"). Keeps up to 256 MB free in the heap instead; the
+// peak is what it was.
+void keep_freed_heap();
+
+} // namespace calib::io
