@@ -10,8 +10,9 @@ namespace calib::io {
 // free, and every page is faulted in again when the next buffer takes it. On
 // a paravirtualised machine that was a quarter of a Fig. 7 calibration and
 // half again the cost of a placement simulation (docs/BENCHMARKS.md,
-// "Overlapping trapezoids"). Keeps up to 256 MB free in the heap instead; the
-// peak is what it was.
+// "Overlapping trapezoids"). Keeps up to 256 MB free in the heap instead, and
+// blocks up to 32 MB in the heap rather than mapped one by one; the peak is
+// what it was.
 void keep_freed_heap();
 
 } // namespace calib::io
