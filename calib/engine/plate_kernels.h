@@ -136,8 +136,9 @@ void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int
 // rows); block_threads_fit() says whether the rows allow it. After step m
 // (1 .. steps - 1) has updated row j (and its ghosts), `row_done(ctx, m, j,
 // below)` is called, once per (m, j), from the thread that updated it (only
-// for the rows j with hook_rows[j] != 0, when hook_rows is given: a call is
-// a spill of the vector registers, 3-5 % of a block at 81 x 81): u rows
+// for the rows j with hook_rows[j] != 0, when hook_rows is given: a call
+// clobbers the vector registers; on every row it cost 3-4 % of a block at
+// 81 x 81 and 330 x 330): u rows
 // j - 2 .. j hold u^{n+m} until the next step reaches row j - 2, where the
 // u offsets in [below.first, below.last) are read at below.rows + (offset -
 // below.first) (the block's copy of the rows under its lowest: their u^{n+m}

@@ -308,7 +308,7 @@ TEST(EngineMirrorEdges, ATeamReportsEachRowOfEachLevelBetweenOnce)
                 const int ny = threads * block_min_rows_per_thread + 5;
                 std::vector<std::uint8_t> rows(std::size_t(ny + 1));
                 for (std::size_t j = 0; j < rows.size(); ++j)
-                    rows[j] = j % 3 == 1 || j == 2; // rows 1, 2, 4, 7, ...: both sides of every seam somewhere
+                    rows[j] = j % 3 == 1 || j == 2; // rows 1, 2, 4, 7, ...: marked and unmarked rows in every block
                 std::vector<float> u(std::size_t((ny + 6) * s)), d(u.size()),
                     scratch(std::size_t((threads * bulk_block_scratch_rows + 1) * s));
                 const BulkCoefficients<float> c{1.0f, 0.01f, 0.0f, {}};
