@@ -73,17 +73,18 @@ CostModel measure_cost(const pipeline::CalibrationInput &in, const pipeline::Cal
     c.seconds_per_step_verify = time_one(in.plate, so, in.exciters.count, in.foci.points.size(), node_steps);
     c.seconds_per_node_step = c.seconds_per_step_simulate / double(plan.nodes);
     // Each site's recording is resampled to the search rate (soxr): timed on
-    // one trace at the recording rate.
+    // one group of traces at the recording rate, as resample_all runs them.
     const double recording_rate = 1.0 / (double(plan.site_decimation) * plan.time_step_s);
     std::vector<double> trace((plan.window_steps + plan.site_decimation - 1) / plan.site_decimation);
     for (size_t n = 0; n < trace.size(); n++)
         trace[n] =
             std::sin(0.01 * double(n * plan.site_decimation)) * std::exp(-1e-4 * double(n * plan.site_decimation));
+    const std::vector<std::vector<double>> group(pipeline::resample_group_channels, trace);
     const auto t0 = Clock::now();
     const int reps = 3;
     for (int r = 0; r < reps; r++)
-        (void)pipeline::resample(trace, recording_rate, plan.search_rate_hz);
-    c.seconds_per_resample = seconds_since(t0) / reps;
+        (void)pipeline::resample_all(group, recording_rate, plan.search_rate_hz);
+    c.seconds_per_resample = seconds_since(t0) / double(reps * group.size());
     if (const auto shape = inverse_filter_shape(in, plan)) {
         const pipeline::InverseFilterOptions o = pipeline::scene_inverse_filter_options(in);
         c.design = pipeline::time_inverse_filter(*shape, o);

@@ -8,7 +8,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <numeric>
 
@@ -57,6 +59,31 @@ TEST(Resample, SineKeepsItsValuesAtTheNewRate)
     for (size_t i = y.size() / 4; i < 3 * y.size() / 4; i++) // away from the ends' filter transients
         err = std::max(err, std::abs(y[i] - std::sin(2 * pi * f * static_cast<double>(i) / fout)));
     EXPECT_LT(err, 1e-4);
+}
+
+TEST(Resample, ManySignalsInGroupsAreEachTheSameBytesAsAlone)
+{
+    // More channels than two groups (the last one short): each output is the
+    // same bytes as that signal resampled alone, whichever group it fell in,
+    // and a sine of its own frequency at the new rate.
+    const double fin = 5107.3, fout = 2400;
+    const std::size_t channels = 2 * resample_group_channels + 5;
+    std::vector<std::vector<double>> x(channels, std::vector<double>(1020));
+    for (std::size_t c = 0; c < channels; c++)
+        for (std::size_t i = 0; i < x[c].size(); i++)
+            x[c][i] = std::sin(2 * pi * (50.0 + 10.0 * double(c)) * double(i) / fin);
+    const std::vector<std::vector<double>> y = resample_all(x, fin, fout);
+    ASSERT_EQ(y.size(), channels);
+    for (std::size_t c = 0; c < channels; c++) {
+        const std::vector<double> alone = resample(x[c], fin, fout);
+        ASSERT_EQ(y[c].size(), alone.size()) << "channel " << c;
+        EXPECT_EQ(0, std::memcmp(y[c].data(), alone.data(), alone.size() * sizeof(double))) << "channel " << c;
+        const double f = 50.0 + 10.0 * double(c);
+        double err = 0;
+        for (std::size_t i = y[c].size() / 4; i < 3 * y[c].size() / 4; i++)
+            err = std::max(err, std::abs(y[c][i] - std::sin(2 * pi * f * double(i) / fout)));
+        EXPECT_LT(err, 1e-4) << "channel " << c << " (" << f << " Hz)";
+    }
 }
 
 namespace {
