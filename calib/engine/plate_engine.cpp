@@ -316,7 +316,7 @@ void PlateEngine<T>::build_block_reads()
 }
 
 template <typename T>
-void PlateEngine<T>::step_block(int steps, double *between)
+void PlateEngine<T>::step_block(int steps, double *between, int blocks)
 {
     if (!can_block())
         throw std::logic_error("PlateEngine::step_block: several steps in one sweep need ghost mirrors, no extension "
@@ -342,13 +342,13 @@ void PlateEngine<T>::step_block(int steps, double *between)
     };
     if (lossy_)
         bulk_update_block<T, true>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
-                                   &reads, block_reads_.rows.data());
+                                   &reads, block_reads_.rows.data(), blocks);
     else
         bulk_update_block<T, false>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
-                                    &reads, block_reads_.rows.data());
+                                    &reads, block_reads_.rows.data(), blocks);
     // inc_ holds d^{n+steps}, the newest increment, as after as many step()s.
     apply_sources();
-    steps_ += std::size_t(steps);
+    steps_ += std::size_t(steps) * std::size_t(blocks);
 }
 
 template <typename T>

@@ -125,7 +125,10 @@ class PlateEngine final : public PointField {
     // source force, the last with the forces set now (as step() `steps` times
     // with every force 0 before the last); between[(m - 1) * receivers + r]
     // receives receiver_value(r) of the level after step m (1 .. steps - 1).
-    void step_block(int steps, double *between);
+    // `blocks` > 1: that many such sweeps in a row in one parallel region
+    // (one barrier between them), every force 0 but in the last step of the
+    // last; m then runs 1 .. blocks steps - 1.
+    void step_block(int steps, double *between, int blocks = 1);
 
     // Discrete energy (J) at time n+1/2 from the two newest levels; exactly
     // conserved without loss and sources, non-increasing with loss.

@@ -170,6 +170,7 @@ struct BlockRegion {
     int steps = 0;
     std::array<int, block_max> lo{}, hi{}; // rows of step k, beyond [a, b) on the copies
     int a = 0, b = 0;                      // this block's own rows
+    int level0 = 0;                        // row_done's level of this block's start
     // This thread's scratch: ring 3 rows per step, inc 3 per level between,
     // start 2 per step, one zero row, the copies of the 2 steps rows below a
     // and from b (u and d each; nullptr at j0 and j1).
@@ -179,14 +180,14 @@ struct BlockRegion {
 };
 
 template <typename T>
-BlockRegion<T> block_scratch(T *scratch, std::ptrdiff_t s)
+BlockRegion<T> block_scratch(T *scratch, std::ptrdiff_t s, int set)
 {
     BlockRegion<T> r;
     r.ring = scratch;
     r.inc = r.ring + 3 * block_max * s;
     r.start = r.inc + 3 * (block_max - 1) * s;
     r.zero = r.start + 2 * block_max * s;
-    r.below_u = r.zero + s;
+    r.below_u = r.zero + s + std::ptrdiff_t(set) * 8 * block_max * s;
     r.below_d = r.below_u + 2 * block_max * s;
     r.above_u = r.below_d + 2 * block_max * s;
     r.above_d = r.above_u + 2 * block_max * s;
@@ -266,7 +267,7 @@ inline __attribute__((always_inline)) void block_body(T *u, T *d, std::ptrdiff_t
             refresh_ghosts<T, E>(u, s, j, c.ghosts, uj);
             if (k + 1 < steps) {
                 if (row_done && j >= r.a && j < r.b && (!hook_rows || hook_rows[j]))
-                    row_done(ctx, k + 1, j, below);
+                    row_done(ctx, r.level0 + k + 1, j, below);
                 // Step k + 1's first two Laplacian rows, once u^{n+k+1} rows
                 // lo - 2 .. lo + 1 are there (and before its first row).
                 if (j == std::min(r.lo[k + 1] + 1, r.hi[k] - 1))
@@ -363,20 +364,25 @@ bool block_threads_fit(int j0, int j1, int threads)
 template <typename T, bool Lossy, int E>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
                        int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx,
-                       const std::uint8_t *hook_rows)
+                       const std::uint8_t *hook_rows, int blocks)
 {
     static const BlockFn<T> fn = HAPTIC_PICK_ISA(BlockFn<T>, (block_avx512<T, Lossy, E>), (block_avx2<T, Lossy, E>),
                                                  (block_baseline<T, Lossy, E>));
     if (steps < 2 || steps > bulk_max_block_steps)
         throw std::invalid_argument("bulk_update_block: steps must be 2 .. " + std::to_string(bulk_max_block_steps));
+    if (blocks < 1)
+        throw std::invalid_argument("bulk_update_block: blocks must be >= 1");
     if (!block_threads_fit(j0, j1, threads))
         throw std::invalid_argument("bulk_update_block: too few rows per thread");
     if (j1 <= j0)
         return;
     threads = std::max(1, threads);
-    auto region = [&](int t) {
-        BlockRegion<T> r = block_scratch(scratch + std::ptrdiff_t(t) * bulk_block_scratch_rows * s, s);
+    // Block t's region in block of steps `blk`: its copies are the set of
+    // blk's parity.
+    auto region = [&](int t, int blk) {
+        BlockRegion<T> r = block_scratch(scratch + std::ptrdiff_t(t) * bulk_block_scratch_rows * s, s, blk % 2);
         r.steps = steps;
+        r.level0 = blk * steps;
         r.a = block_seam(j0, j1, threads, t);
         r.b = block_seam(j0, j1, threads, t + 1);
         if (t == 0)
@@ -390,8 +396,23 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         }
         return r;
     };
+    // The receivers of the level a block of steps starts from (the one
+    // before's last), rows [r.a, r.b), read as the kernel reads them.
+    auto start_level_done = [&](const BlockRegion<T> &r) {
+        if (!row_done || r.level0 == 0)
+            return;
+        const BlockBelow below =
+            r.below_u ? BlockBelow{r.below_u, r.below_first() * s, std::ptrdiff_t(r.a) * s} : BlockBelow{};
+        for (int j = r.a; j < r.b; ++j)
+            if (!hook_rows || hook_rows[j])
+                row_done(ctx, r.level0, j, below);
+    };
     if (threads == 1) {
-        fn(u, d, s, i0, i1, j0, j1, c, region(0), row_done, ctx, hook_rows);
+        for (int blk = 0; blk < blocks; ++blk) {
+            const BlockRegion<T> r = region(0, blk);
+            start_level_done(r);
+            fn(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, hook_rows);
+        }
         return;
     }
     // Rows `first` .. first + 2 steps - 1 of u and d to `u_copy`, `d_copy`
@@ -401,6 +422,19 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         const std::ptrdiff_t from = first * s + i0 - 2, n = (2 * steps - 1) * s + (i1 - i0 + 4);
         std::copy_n(u + from, n, u_copy + (i0 - 2));
         std::copy_n(d + from, n, d_copy + (i0 - 2));
+    };
+    // Block t's own rows beside its seams to its neighbours' copies for block
+    // of steps `blk`.
+    auto copy_out = [&](int t, int blk) {
+        const BlockRegion<T> r = region(t, blk);
+        if (t > 0) {
+            const BlockRegion<T> below = region(t - 1, blk);
+            copy_rows(r.a, below.above_u, below.above_d);
+        }
+        if (t + 1 < threads) {
+            const BlockRegion<T> above = region(t + 1, blk);
+            copy_rows(above.below_first(), above.below_u, above.below_d);
+        }
     };
 #pragma omp parallel num_threads(threads)
     {
@@ -412,27 +446,27 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         // when this block next writes them (a neighbour reading them itself
         // left them shared, and every write to them in the sweep then waited
         // for the other core: measured 10-20 % slower per block, 330 x 330).
-        for (int t = tid; t < threads; t += nth) {
-            const BlockRegion<T> r = region(t);
-            if (t > 0) {
-                const BlockRegion<T> below = region(t - 1);
-                copy_rows(r.a, below.above_u, below.above_d);
-            }
-            if (t + 1 < threads) {
-                const BlockRegion<T> above = region(t + 1);
-                copy_rows(above.below_first(), above.below_u, above.below_d);
-            }
-        }
+        for (int t = tid; t < threads; t += nth)
+            copy_out(t, 0);
+        // Blocks of steps after the first: each block copies its rows at the
+        // end of its trapezoid into the other set of copies, which its
+        // neighbours last read before the barrier before; one barrier per
+        // block of steps.
+        for (int blk = 0; blk < blocks; ++blk) {
 #pragma omp barrier
-        for (int t = tid; t < threads; t += nth) {
-            // The copies, now in the other core's cache, asked for at once
-            // rather than row by row as the sweep reaches them.
-            const BlockRegion<T> r = region(t);
-            for (const T *p : {r.below_u, r.below_d, r.above_u, r.above_d})
-                if (p)
-                    for (std::ptrdiff_t o = i0 - 2; o < 2 * steps * s; o += 64 / std::ptrdiff_t(sizeof(T)))
-                        __builtin_prefetch(p + o, 0, 2);
-            fn(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, hook_rows);
+            for (int t = tid; t < threads; t += nth) {
+                // The copies, now in the other core's cache, asked for at once
+                // rather than row by row as the sweep reaches them.
+                const BlockRegion<T> r = region(t, blk);
+                for (const T *p : {r.below_u, r.below_d, r.above_u, r.above_d})
+                    if (p)
+                        for (std::ptrdiff_t o = i0 - 2; o < 2 * steps * s; o += 64 / std::ptrdiff_t(sizeof(T)))
+                            __builtin_prefetch(p + o, 0, 2);
+                start_level_done(r);
+                fn(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, hook_rows);
+                if (blk + 1 < blocks)
+                    copy_out(t, blk + 1);
+            }
         }
     }
 }
@@ -473,7 +507,7 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
                                             const BulkCoefficients<T> &, int, T *);                                    \
     template void bulk_update_block<T, L, 1>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *);
+                                             const std::uint8_t *, int);
 #define HAPTIC_LANES_INSTANCES(T, L)                                                                                   \
     template void bulk_update_lanes<T, L, 1>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
@@ -485,13 +519,13 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
                                              const BulkCoefficients<T> &, T *);                                        \
     template void bulk_update_block<T, L, 2>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *);                                                    \
+                                             const std::uint8_t *, int);                                               \
     template void bulk_update_block<T, L, 4>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *);                                                    \
+                                             const std::uint8_t *, int);                                               \
     template void bulk_update_block<T, L, 8>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *);
+                                             const std::uint8_t *, int);
 HAPTIC_LANES_INSTANCES(float, false)
 HAPTIC_LANES_INSTANCES(float, true)
 HAPTIC_LANES_INSTANCES(double, false)

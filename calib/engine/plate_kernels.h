@@ -129,13 +129,18 @@ void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int
 // bulk_update's, term for term. The rows j0 - 1 and j1 and the columns
 // i0 - 1 and i1 are the boundary nodes of mirrored edges (zero in every
 // level), the rows and columns are all the unknowns. `threads` > 1 cuts the
-// rows into blocks over an OpenMP team, one fork/join and one barrier per
-// call (plate_kernels.cpp: each block copies the 2 steps rows of u and d
-// beyond each of its seams, then, after the barrier, runs a trapezoid in
-// (row, step) that reaches into those copies far enough to finish its own
-// rows); block_threads_fit() says whether the rows allow it. After step m
-// (1 .. steps - 1) has updated row j (and its ghosts), `row_done(ctx, m, j,
-// below)` is called, once per (m, j), from the thread that updated it (only
+// rows into blocks over an OpenMP team, one fork/join per call and one
+// barrier per sweep (plate_kernels.cpp: each block copies the 2 steps rows of
+// u and d beyond each of its seams, then, after the barrier, runs a trapezoid
+// in (row, step) that reaches into those copies far enough to finish its own
+// rows); block_threads_fit() says whether the rows allow it. `blocks` > 1:
+// that many sweeps of `steps` in a row in the one region, each block copying
+// its rows for the next sweep at the end of its trapezoid into a second set
+// of copies (the set its neighbours last read before the barrier before).
+// After step m (1 .. blocks steps - 1) has updated row j (and its ghosts),
+// `row_done(ctx, m, j, below)` is called, once per (m, j), from the thread
+// that updated it (a sweep's last level: from the block that owns row j,
+// after the barrier before the next sweep; only
 // for the rows j with hook_rows[j] != 0, when hook_rows is given: a call
 // clobbers the vector registers; on every row it cost 3-4 % of a block at
 // 81 x 81 and 330 x 330): u rows
@@ -145,8 +150,8 @@ void bulk_update_threads(T *u, const T *d, T *d_next, std::ptrdiff_t stride, int
 // is there, not in u). steps: 2 .. bulk_max_block_steps; scratch: threads *
 // bulk_block_scratch_rows rows.
 constexpr int bulk_max_block_steps = 4;
-constexpr int bulk_block_scratch_rows =
-    3 * bulk_max_block_steps + 3 * (bulk_max_block_steps - 1) + 2 * bulk_max_block_steps + 1 + 8 * bulk_max_block_steps;
+constexpr int bulk_block_scratch_rows = 3 * bulk_max_block_steps + 3 * (bulk_max_block_steps - 1) +
+                                        2 * bulk_max_block_steps + 1 + 16 * bulk_max_block_steps;
 constexpr int block_min_rows_per_thread = 8 * bulk_max_block_steps;
 bool block_threads_fit(int j0, int j1, int threads);
 struct BlockBelow {
@@ -174,7 +179,7 @@ std::size_t block_length(std::size_t left, Forced &&forced, Due &&due)
 template <typename T, bool Lossy, int E = 1>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t stride, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
                        int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx,
-                       const std::uint8_t *hook_rows = nullptr);
+                       const std::uint8_t *hook_rows = nullptr, int blocks = 1);
 
 // Several independent fields of one plate side by side (engine/lanes.h): node
 // (i, j) of lane l at u[j * stride + i * E + l], `stride` elements (a multiple

@@ -16,6 +16,9 @@ namespace calib::engine {
 
 namespace {
 
+// The most blocks of steps one parallel region runs (Simulation::run).
+constexpr std::size_t run_max_blocks = 64;
+
 using io::fmt;
 
 } // namespace
@@ -234,9 +237,48 @@ void Simulation::run(std::size_t steps)
             bool blocks = false;
             if constexpr (blockable)
                 blocks = e->can_block() && finger_force_.empty();
-            std::vector<double> between(blocks ? std::size_t(bulk_max_block_steps - 1) * traces_.size() : 0);
+            // Whether no source has a force at step `now` (a non-finite or
+            // non-zero one is set, and refused, by set_forces).
+            auto force_free = [&](std::size_t now) {
+                for (std::size_t s = 0; s < signals_.size(); ++s) {
+                    const std::size_t idx = now - signal_start_[s];
+                    if (idx < signals_[s].size() && !(T(signals_[s][idx]) == T(0)))
+                        return false;
+                }
+                return true;
+            };
+            // Blocks of the largest length in a row, in one parallel region
+            // (PlateEngine::step_block's `blocks`): while no step has a force
+            // and nothing is due but after the last.
+            constexpr std::size_t full = bulk_max_block_steps;
+            const std::size_t max_run = blocks ? run_max_blocks : 1;
+            std::vector<double> between(blocks ? (max_run * full - 1) * traces_.size() : 0);
             for (std::size_t n = 0; n < steps;) {
                 const std::size_t now = e->steps_done();
+                if constexpr (blockable) {
+                    // Whole blocks, each free of forces, nothing due but
+                    // after the last step of the run.
+                    std::size_t run = 0;
+                    while (blocks && run < max_run && (run + 1) * full <= steps - n) {
+                        bool ok = true;
+                        for (std::size_t m = run * full; m < (run + 1) * full && ok; ++m)
+                            ok = force_free(now + m) && (m + 1 == (run + 1) * full || !due_after(now + m));
+                        if (!ok)
+                            break;
+                        if (due_after(now + (++run) * full - 1))
+                            break;
+                    }
+                    if (run >= 2) {
+                        set_forces(now + run * full - 1); // every one 0
+                        e->step_block(int(full), between.data(), int(run));
+                        for (std::size_t m = 1; m < run * full; ++m)
+                            after_step(now + m - 1,
+                                       [&](std::size_t r) { return between[(m - 1) * traces_.size() + r]; });
+                        after_step(now + run * full - 1, [&](std::size_t r) { return e->receiver_value(r); });
+                        n += run * full;
+                        continue;
+                    }
+                }
                 // The forces set last are those of the block's last step.
                 std::size_t block = 1;
                 if (blocks)

@@ -186,7 +186,7 @@ namespace {
 // and in every receiver between the steps and after them. A source drives the
 // last step of some blocks (a force in an earlier one refuses a block).
 template <typename T>
-void block_against_single(const Edges &e, const Loss &loss, int nx, int ny, int steps, int threads = 1)
+void block_against_single(const Edges &e, const Loss &loss, int nx, int ny, int steps, int threads = 1, int blocks = 1)
 {
     auto op = make_plate(nx, ny, 0.01, e, 0.3, loss);
     const double k = 0.9 * op->max_time_step();
@@ -214,12 +214,12 @@ void block_against_single(const Edges &e, const Loss &loss, int nx, int ny, int 
             eng->add_receiver(x * lx, y * ly);
     const std::size_t src = blocked.add_source(0.4 * lx, 0.6 * ly);
     single.add_source(0.4 * lx, 0.6 * ly);
-    std::vector<double> between(R * std::size_t(steps - 1));
-    for (int n = 0; n < 600 / steps; ++n) {
+    std::vector<double> between(R * std::size_t(steps * blocks - 1));
+    for (int n = 0; n < 600 / (steps * blocks); ++n) {
         const double f = n % 3 == 0 ? std::sin(0.7 * n) : 0.0;
         blocked.set_source_force(src, f);
-        blocked.step_block(steps, between.data());
-        for (int m = 1; m < steps; ++m) {
+        blocked.step_block(steps, between.data(), blocks);
+        for (int m = 1; m < steps * blocks; ++m) {
             single.set_source_force(src, 0.0);
             single.step();
             for (std::size_t r = 0; r < R; ++r)
@@ -269,7 +269,16 @@ TEST(EngineMirrorEdges, StepsInOneSweepOnATeamAreStepsBitForBit)
             block_against_single<double>(e, Loss{}, 8, threads * fewest + 7, steps, threads);
             block_against_single<double>(Edges::all(EdgeKind::clamped), Loss{2.0, 5e-4}, 7, 2 * threads * fewest + 3,
                                          steps, threads);
+            // Several blocks in one region: one barrier each, the copies
+            // taken at the end of each trapezoid into the other set.
+            for (int blocks : {2, 5}) {
+                block_against_single<float>(e, Loss{2.0, 5e-4}, 9, threads * fewest + 1, steps, threads, blocks);
+                block_against_single<double>(e, Loss{}, 8, threads * fewest + 7, steps, threads, blocks);
+            }
         }
+    for (int blocks : {2, 5}) // on one thread
+        block_against_single<float>(Edges::all(EdgeKind::simply_supported), Loss{2.0, 5e-4}, 23, 17,
+                                    calib::engine::bulk_max_block_steps, 1, blocks);
     // Too few rows for the team: refused, and the engine says so beforehand.
     auto op = make_plate(9, 2 * fewest - 1, 0.01, Edges::all(EdgeKind::clamped));
     EngineOptions team;
@@ -304,27 +313,74 @@ TEST(EngineMirrorEdges, ATeamReportsEachRowOfEachLevelBetweenOnce)
     const std::ptrdiff_t s = 16; // columns -2 .. 13
     for (bool marked : {false, true})
         for (int threads : {1, 2, 3})
-            for (int steps = 2; steps <= bulk_max_block_steps; ++steps) {
-                const int ny = threads * block_min_rows_per_thread + 5;
-                std::vector<std::uint8_t> rows(std::size_t(ny + 1));
-                for (std::size_t j = 0; j < rows.size(); ++j)
-                    rows[j] = j % 3 == 1 || j == 2; // rows 1, 2, 4, 7, ...: marked and unmarked rows in every block
-                std::vector<float> u(std::size_t((ny + 6) * s)), d(u.size()),
-                    scratch(std::size_t((threads * bulk_block_scratch_rows + 1) * s));
-                const BulkCoefficients<float> c{1.0f, 0.01f, 0.0f, {}};
-                Reports r(std::size_t(steps * (ny + 1)));
-                r.rows = ny + 1;
-                bulk_update_block<float, false>(u.data() + 3 * s + 2, d.data() + 3 * s + 2, s, 1, nx, 1, ny, c, steps,
-                                                threads, scratch.data() + 2, count_report, &r,
-                                                marked ? rows.data() : nullptr);
-                for (int level = 0; level < steps; ++level)
-                    for (int row = 0; row <= ny; ++row)
-                        ASSERT_EQ(r.count[std::size_t(level * r.rows + row)].load(),
-                                  level > 0 && row >= 1 && row < ny && (!marked || rows[std::size_t(row)]) ? 1 : 0)
-                            << threads << " threads, " << steps << " steps, level " << level << " row " << row
-                            << (marked ? ", every third row marked" : "");
-            }
+            for (int steps = 2; steps <= bulk_max_block_steps; ++steps)
+                for (int blocks : {1, 3}) {
+                    const int ny = threads * block_min_rows_per_thread + 5;
+                    std::vector<std::uint8_t> rows(std::size_t(ny + 1));
+                    for (std::size_t j = 0; j < rows.size(); ++j)
+                        rows[j] = j % 3 == 1 || j == 2; // rows 1, 2, 4, 7, ...: marked and unmarked rows in every block
+                    std::vector<float> u(std::size_t((ny + 6) * s)), d(u.size()),
+                        scratch(std::size_t((threads * bulk_block_scratch_rows + 1) * s));
+                    const BulkCoefficients<float> c{1.0f, 0.01f, 0.0f, {}};
+                    Reports r(std::size_t(steps * blocks * (ny + 1)));
+                    r.rows = ny + 1;
+                    bulk_update_block<float, false>(u.data() + 3 * s + 2, d.data() + 3 * s + 2, s, 1, nx, 1, ny, c,
+                                                    steps, threads, scratch.data() + 2, count_report, &r,
+                                                    marked ? rows.data() : nullptr, blocks);
+                    for (int level = 0; level < steps * blocks; ++level)
+                        for (int row = 0; row <= ny; ++row)
+                            ASSERT_EQ(r.count[std::size_t(level * r.rows + row)].load(),
+                                      level > 0 && row >= 1 && row < ny && (!marked || rows[std::size_t(row)]) ? 1 : 0)
+                                << threads << " threads, " << blocks << " blocks of " << steps << " steps, level "
+                                << level << " row " << row << (marked ? ", every third row marked" : "");
+                }
 }
+
+namespace {
+
+// A Simulation (run `steps` steps from rest: one source at (x, y) with
+// `force`, receivers `at`, a lattice of `stride` from step `first` every
+// `interval`) against the engine stepped one step at a time with the same
+// forces: the same bits in every trace, every lattice frame and the final
+// field.
+void expect_as_single_steps(const Simulation &sim, const std::shared_ptr<PlateOperator> &op, Precision p, double x,
+                            double y, const std::vector<double> &force,
+                            const std::vector<std::pair<double, double>> &at, std::size_t steps, int stride,
+                            std::size_t first, std::size_t interval)
+{
+    const int nx = op->grid().nx, ny = op->grid().ny;
+    auto check = [&](auto &eng) {
+        ASSERT_TRUE(eng.can_block());
+        const std::size_t src = eng.add_source(x, y);
+        for (auto [rx, ry] : at)
+            eng.add_receiver(rx, ry);
+        std::vector<float> frames;
+        for (std::size_t n = 0; n < steps; ++n) {
+            eng.set_source_force(src, n < force.size() ? force[n] : 0.0);
+            eng.step();
+            for (std::size_t r = 0; r < at.size(); ++r)
+                ASSERT_EQ(sim.traces()[r][n], eng.receiver_value(r)) << "step " << n << " receiver " << r;
+            if (n >= first && (n - first) % interval == 0)
+                for (int j = 0; j <= ny; j += stride)
+                    for (int i = 0; i <= nx; i += stride)
+                        frames.push_back(float(eng.w_at(i, j)));
+        }
+        ASSERT_EQ(sim.lattice_frames().size(), frames.size());
+        for (std::size_t f = 0; f < frames.size(); ++f)
+            ASSERT_EQ(sim.lattice_frames()[f], frames[f]) << "lattice value " << f;
+        EXPECT_EQ(sim.snapshot(), eng.displacement());
+    };
+    const double k = sim.time_step_s();
+    if (p == Precision::f32) {
+        PlateEngine<float> eng(op, k);
+        check(eng);
+    } else {
+        PlateEngine<double> eng(op, k);
+        check(eng);
+    }
+}
+
+} // namespace
 
 // A Simulation steps in blocks (bulk_update_block) wherever nothing but its
 // receivers is due between steps: no force but in a block's last step, no
@@ -356,36 +412,43 @@ TEST(EngineMirrorEdges, ASimulationBlocksOnlyStepsWithNothingButReceiversBetween
         for (int run : {1, 3, 10, 17, 40, 29})
             sim.run(std::size_t(run));
 
-        auto check = [&](auto &eng) {
-            ASSERT_TRUE(eng.can_block());
-            const std::size_t src = eng.add_source(x, y);
-            for (auto [rx, ry] : at)
-                eng.add_receiver(rx, ry);
-            std::vector<float> frames;
-            for (std::size_t n = 0; n < 100; ++n) {
-                eng.set_source_force(src, n < force.size() ? force[n] : 0.0);
-                eng.step();
-                for (std::size_t r = 0; r < at.size(); ++r)
-                    ASSERT_EQ(sim.traces()[r][n], eng.receiver_value(r)) << "step " << n << " receiver " << r;
-                if (n >= 5 && (n - 5) % 9 == 0)
-                    for (int j = 0; j <= 17; j += 4)
-                        for (int i = 0; i <= 21; i += 4)
-                            frames.push_back(float(eng.w_at(i, j)));
-            }
-            ASSERT_EQ(sim.lattice_frames().size(), frames.size());
-            for (std::size_t f = 0; f < frames.size(); ++f)
-                ASSERT_EQ(sim.lattice_frames()[f], frames[f]) << "lattice value " << f;
-            EXPECT_EQ(sim.snapshot(), eng.displacement());
-        };
-        const double k = sim.time_step_s();
-        if (p == Precision::f32) {
-            PlateEngine<float> eng(op, k);
-            check(eng);
-        } else {
-            PlateEngine<double> eng(op, k);
-            check(eng);
-        }
+        expect_as_single_steps(sim, op, p, x, y, force, at, 100, 4, 5, 9);
     }
+}
+
+// Runs of blocks in one parallel region (step_block's `blocks`): where no
+// force and nothing but the receivers falls for many steps, a Simulation on
+// a team runs several blocks at a time. Against the engine stepped one step
+// at a time: the same bits in every trace, lattice frame and the final field,
+// with forces early and late, scans and lattice frames at long intervals.
+TEST(EngineMirrorEdges, ASimulationOnATeamRunsBlocksInARowBitForBit)
+{
+    const int ny = 2 * calib::engine::block_min_rows_per_thread + 5;
+    for (Precision p : {Precision::f32, Precision::f64})
+        for (int threads : {1, 2}) {
+            auto op = make_plate(11, ny, 0.01, Edges::all(EdgeKind::simply_supported), 0.3, Loss{2.0, 5e-4});
+            SimulationOptions o;
+            o.precision = p;
+            o.field_check_interval = 48;
+            o.engine.threads = threads;
+            o.engine.parallel_min_cells = 0;
+            Simulation sim(op, o);
+            std::vector<double> force(400, 0.0);
+            for (int n : {0, 3, 150, 151, 399})
+                force[std::size_t(n)] = std::cos(0.3 * n) + 0.5;
+            const double x = 0.04, y = 0.3;
+            sim.set_source_signal(sim.add_source(x, y), force);
+            // One receiver beside the seam (rows ny / 2 +- 1), two elsewhere.
+            const std::vector<std::pair<double, double>> at = {
+                {0.05, 0.01 * (ny / 2) + 0.004}, {0.07, 0.01 * (ny / 2) - 0.006}, {0.02, 0.05}};
+            for (auto [rx, ry] : at)
+                sim.add_receiver(rx, ry);
+            sim.record_lattice(5, 100, 77);
+            for (int run : {5, 200, 195, 100})
+                sim.run(std::size_t(run));
+            SCOPED_TRACE(std::to_string(threads) + " threads");
+            expect_as_single_steps(sim, op, p, x, y, force, at, 500, 5, 100, 77);
+        }
 }
 
 // The whole-field scan on a team (each thread its own rows, as the sweep cuts
