@@ -181,11 +181,16 @@ void Simulation::run(std::size_t steps)
             else
                 ftz_thread.emplace();
             // Sets every source's force for step `now`; false if all are zero.
+            // Source s's force at step `now` (0 outside its signal).
+            auto force_at = [&](std::size_t s, std::size_t now) {
+                const std::size_t idx = now - signal_start_[s];
+                return idx < signals_[s].size() ? signals_[s][idx] : 0.0;
+            };
             auto set_forces = [&](std::size_t now) {
                 bool any = false;
                 for (std::size_t s = 0; s < signals_.size(); ++s) {
                     const std::size_t idx = now - signal_start_[s];
-                    const double force = idx < signals_[s].size() ? signals_[s][idx] : 0.0;
+                    const double force = force_at(s, now);
                     if (!std::isfinite(force) || std::abs(force) > double(std::numeric_limits<T>::max()))
                         fail("non-finite force (" + fmt("%g", force) + " N" +
                              (std::isfinite(force)
@@ -240,11 +245,9 @@ void Simulation::run(std::size_t steps)
             // Whether no source has a force at step `now` (a non-finite or
             // non-zero one is set, and refused, by set_forces).
             auto force_free = [&](std::size_t now) {
-                for (std::size_t s = 0; s < signals_.size(); ++s) {
-                    const std::size_t idx = now - signal_start_[s];
-                    if (idx < signals_[s].size() && !(T(signals_[s][idx]) == T(0)))
+                for (std::size_t s = 0; s < signals_.size(); ++s)
+                    if (!(T(force_at(s, now)) == T(0)))
                         return false;
-                }
                 return true;
             };
             // Blocks of the largest length in a row, in one parallel region
