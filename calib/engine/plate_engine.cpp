@@ -171,6 +171,7 @@ void PlateEngine<T>::add_displacement(std::ptrdiff_t offset, T delta_m)
 {
     u_[offset] += delta_m;
     inc_[offset] += delta_m;
+    scanned_clean_ = no_scan;
     const int i = int(offset % stride_), j = int(offset / stride_);
     if (mirror_edges_ && (i <= 1 || i >= nx_ - 1 || j <= 1 || j >= ny_ - 1))
         ghosts_stale_ = true; // a node a ghost mirrors changed after the sweep
@@ -316,7 +317,7 @@ void PlateEngine<T>::build_block_reads()
 }
 
 template <typename T>
-void PlateEngine<T>::step_block(int steps, double *between, int blocks)
+int PlateEngine<T>::step_block(int steps, double *between, int blocks, const std::uint8_t *scan_after)
 {
     if (!can_block())
         throw std::logic_error("PlateEngine::step_block: several steps in one sweep need ghost mirrors, no extension "
@@ -340,15 +341,23 @@ void PlateEngine<T>::step_block(int steps, double *between, int blocks)
         for (std::uint32_t i = br.first[std::size_t(row)]; i < br.first[std::size_t(row) + 1]; ++i)
             out[br.receiver[i]] = r.engine->receiver_value(br.receiver[i], below);
     };
+    BlockScan scan{scan_after};
+    BlockScan *const scans = scan_after ? &scan : nullptr;
     if (lossy_)
         bulk_update_block<T, true>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
-                                   &reads, block_reads_.rows.data(), blocks);
+                                   &reads, block_reads_.rows.data(), blocks, scans);
     else
         bulk_update_block<T, false>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
-                                    &reads, block_reads_.rows.data(), blocks);
+                                    &reads, block_reads_.rows.data(), blocks, scans);
+    const int done = scan_after ? scan.blocks_done : blocks;
+    steps_ += std::size_t(steps) * std::size_t(done);
+    // The kernel's scan of the newest level, for non_finite_report, unless a
+    // source's force changes it below (add_displacement forgets it).
+    if (scan_after && scan_after[done - 1] && !scan.found)
+        scanned_clean_ = steps_;
     // inc_ holds d^{n+steps}, the newest increment, as after as many step()s.
     apply_sources();
-    steps_ += std::size_t(steps) * std::size_t(blocks);
+    return done;
 }
 
 template <typename T>
@@ -395,6 +404,7 @@ void PlateEngine<T>::set_state(const std::vector<double> &current, const std::ve
         inc_before_[offset_of(node)] = T(0);
     }
     ghosts_stale_ = true;
+    scanned_clean_ = no_scan;
     const auto raw = raw_moments();
     for (int c = 0; c < rigid_count_; ++c) {
         const auto &b = rigid_b_[std::size_t(c)];

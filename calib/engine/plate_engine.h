@@ -127,8 +127,12 @@ class PlateEngine final : public PointField {
     // receives receiver_value(r) of the level after step m (1 .. steps - 1).
     // `blocks` > 1: that many such sweeps in a row in one parallel region
     // (one barrier between them), every force 0 but in the last step of the
-    // last; m then runs 1 .. blocks steps - 1.
-    void step_block(int steps, double *between, int blocks = 1);
+    // last; m then runs 1 .. blocks steps - 1. scan_after (one per block):
+    // the whole-field scan of the level after a block runs on the team inside
+    // the region (BlockScan); the first that sees a non-finite value ends the
+    // sweeps there, and non_finite_report() then reports it. Returns the
+    // blocks run (`blocks` but after such a scan).
+    int step_block(int steps, double *between, int blocks = 1, const std::uint8_t *scan_after = nullptr);
 
     // Discrete energy (J) at time n+1/2 from the two newest levels; exactly
     // conserved without loss and sources, non-increasing with loss.
@@ -138,6 +142,7 @@ class PlateEngine final : public PointField {
     std::vector<double> displacement() const;
     // Empty while every node of the newest level is finite; else what and
     // where: the first non-finite node in row order, their count and extent.
+    // Free after a step_block whose last block's scan found the level clean.
     std::string non_finite_report() const;
     double w_at(int i, int j) const { return double(u_[j * stride_ + i]); } // the newest level at node (i, j)
     // Sets u^n and u^{n-1} (values at fixed nodes are ignored).
@@ -221,6 +226,10 @@ class PlateEngine final : public PointField {
     int nx_ = 0, ny_ = 0;
     std::ptrdiff_t stride_ = 0;
     std::size_t steps_ = 0;
+    // steps_ when step_block's scan last found the newest level finite and
+    // nothing changed it since (no_scan: none).
+    static constexpr std::size_t no_scan = std::size_t(-1);
+    std::size_t scanned_clean_ = no_scan;
     int bulk_threads_ = 1;
     bool mirror_edges_ = false;
     bool ghosts_stale_ = true; // the ghosts of u^n need a pass before the next sweep

@@ -57,6 +57,8 @@ void PlateEngine<T>::apply(const PointTaps &point, double force_n)
 template <typename T>
 std::string PlateEngine<T>::non_finite_report() const
 {
+    if (scanned_clean_ == steps_)
+        return {};
     bool bad = false;
     if (bulk_threads_ > 1) {
         // Each thread scans the rows its sweep updates (block_seam): a scan

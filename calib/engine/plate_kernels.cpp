@@ -1,9 +1,12 @@
 #include "engine/plate_kernels.h"
 
+#include "engine/non_finite.h"
+
 #include <omp.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <initializer_list>
@@ -364,7 +367,7 @@ bool block_threads_fit(int j0, int j1, int threads)
 template <typename T, bool Lossy, int E>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
                        int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx,
-                       const std::uint8_t *hook_rows, int blocks)
+                       const std::uint8_t *hook_rows, int blocks, BlockScan *scan)
 {
     static const BlockFn<T> fn = HAPTIC_PICK_ISA(BlockFn<T>, (block_avx512<T, Lossy, E>), (block_avx2<T, Lossy, E>),
                                                  (block_baseline<T, Lossy, E>));
@@ -374,9 +377,31 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         throw std::invalid_argument("bulk_update_block: blocks must be >= 1");
     if (!block_threads_fit(j0, j1, threads))
         throw std::invalid_argument("bulk_update_block: too few rows per thread");
+    if (scan) {
+        scan->blocks_done = 0;
+        scan->found = false;
+    }
     if (j1 <= j0)
         return;
     threads = std::max(1, threads);
+    // Whether block t's rows of u hold a non-finite value, if a scan is due
+    // after block of steps `blk`.
+    auto scan_finds = [&](int t, int blk) {
+        if (!scan || !scan->after[blk])
+            return false;
+        for (int j = block_seam(j0, j1, threads, t); j < block_seam(j0, j1, threads, t + 1); ++j)
+            if (any_non_finite(u + j * s + i0 * E, long(i1 - i0) * E))
+                return true;
+        return false;
+    };
+    // The first block of steps after which a scan saw a non-finite value
+    // (`blocks`: none).
+    auto finish = [&](int stop) {
+        if (scan) {
+            scan->blocks_done = stop < blocks ? stop + 1 : blocks;
+            scan->found = stop < blocks;
+        }
+    };
     // Block t's region in block of steps `blk`: its copies are the set of
     // blk's parity.
     auto region = [&](int t, int blk) {
@@ -412,8 +437,10 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
             const BlockRegion<T> r = region(0, blk);
             start_level_done(r);
             fn(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, hook_rows);
+            if (scan_finds(0, blk))
+                return finish(blk);
         }
-        return;
+        return finish(blocks);
     }
     // Rows `first` .. first + 2 steps - 1 of u and d to `u_copy`, `d_copy`
     // (columns i0 - 2 .. i1 + 1: the ghosts and the boundary columns the
@@ -436,6 +463,7 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
             copy_rows(above.below_first(), above.below_u, above.below_d);
         }
     };
+    std::atomic<int> stop{blocks};
 #pragma omp parallel num_threads(threads)
     {
         // A team smaller than asked (nested, or limited) runs several blocks
@@ -451,9 +479,12 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         // Blocks of steps after the first: each block copies its rows at the
         // end of its trapezoid into the other set of copies, which its
         // neighbours last read before the barrier before; one barrier per
-        // block of steps.
+        // block of steps. After a scan that saw a non-finite value, every
+        // thread leaves at the barrier after it.
         for (int blk = 0; blk < blocks; ++blk) {
 #pragma omp barrier
+            if (stop.load(std::memory_order_relaxed) < blk)
+                break;
             for (int t = tid; t < threads; t += nth) {
                 // The copies, now in the other core's cache, asked for at once
                 // rather than row by row as the sweep reaches them.
@@ -466,9 +497,12 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
                 fn(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, hook_rows);
                 if (blk + 1 < blocks)
                     copy_out(t, blk + 1);
+                if (scan_finds(t, blk))
+                    stop.store(blk, std::memory_order_relaxed);
             }
         }
     }
+    finish(stop.load(std::memory_order_relaxed));
 }
 
 template <typename T, bool Lossy, int E>
@@ -507,7 +541,7 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
                                             const BulkCoefficients<T> &, int, T *);                                    \
     template void bulk_update_block<T, L, 1>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *, int);
+                                             const std::uint8_t *, int, BlockScan *);
 #define HAPTIC_LANES_INSTANCES(T, L)                                                                                   \
     template void bulk_update_lanes<T, L, 1>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
@@ -519,13 +553,13 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
                                              const BulkCoefficients<T> &, T *);                                        \
     template void bulk_update_block<T, L, 2>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *, int);                                               \
+                                             const std::uint8_t *, int, BlockScan *);                                  \
     template void bulk_update_block<T, L, 4>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *, int);                                               \
+                                             const std::uint8_t *, int, BlockScan *);                                  \
     template void bulk_update_block<T, L, 8>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *, int);
+                                             const std::uint8_t *, int, BlockScan *);
 HAPTIC_LANES_INSTANCES(float, false)
 HAPTIC_LANES_INSTANCES(float, true)
 HAPTIC_LANES_INSTANCES(double, false)

@@ -175,11 +175,23 @@ std::size_t block_length(std::size_t left, Forced &&forced, Due &&due)
             break;
     return b;
 }
+// The whole-field scan for NaN and Inf (Simulation::run's) inside
+// bulk_update_block's region: after block of steps b with after[b] != 0,
+// each thread tests the nodes it updates, hot in its cache, and if any
+// holds a non-finite value every thread stops after that block. Saves a
+// parallel region of its own per scan, and lets a run of blocks go on past a
+// scan. The boundary nodes are not tested: zero in every level, nothing
+// writes them (a non-finite one would be read by the rows next to it).
+struct BlockScan {
+    const std::uint8_t *after = nullptr; // one per block of steps
+    int blocks_done = 0;                 // out: the blocks run
+    bool found = false;                  // out: the scan after the last block run saw a non-finite value
+};
 // E > 1: lanes (bulk_update_lanes' layout), one thread, no row_done.
 template <typename T, bool Lossy, int E = 1>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t stride, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
                        int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx,
-                       const std::uint8_t *hook_rows = nullptr, int blocks = 1);
+                       const std::uint8_t *hook_rows = nullptr, int blocks = 1, BlockScan *scan = nullptr);
 
 // Several independent fields of one plate side by side (engine/lanes.h): node
 // (i, j) of lane l at u[j * stride + i * E + l], `stride` elements (a multiple

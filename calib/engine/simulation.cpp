@@ -5,7 +5,9 @@
 #include "engine/spectrum.h"
 #include "io/format.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
@@ -16,8 +18,11 @@ namespace calib::engine {
 
 namespace {
 
-// The most blocks of steps one parallel region runs (Simulation::run).
+// The most blocks of steps one parallel region runs (Simulation::run), and
+// the most bytes of receiver values they leave between (many receivers: the
+// values of fewer blocks stay in cache until they are copied out).
 constexpr std::size_t run_max_blocks = 64;
+constexpr std::size_t run_max_bytes = 64 * 1024;
 
 using io::fmt;
 
@@ -206,7 +211,9 @@ void Simulation::run(std::size_t steps)
             };
             // The receivers of the level just computed (step `now`), then the
             // lattice and the scan due after it.
-            auto after_step = [&](std::size_t now, auto &&receiver) {
+            // `scanned`: a scan due after the step ran in the sweep, and the
+            // level was finite (PlateEngine::step_block's scan_after).
+            auto after_step = [&](std::size_t now, auto &&receiver, bool scanned = false) {
                 for (std::size_t f = 0; f < finger_force_.size(); ++f)
                     finger_forces_[f].push_back(finger_force_[f]());
                 bool receivers_ok = true;
@@ -229,15 +236,19 @@ void Simulation::run(std::size_t steps)
                 }
                 if (lattice_stride_ > 0 && n_done_ok(now + 1))
                     record(e);
-                if (interval > 0 && (now + 1) % interval == 0)
-                    scan(e, "the whole-field scan");
+                if (interval > 0 && (now + 1) % interval == 0) {
+                    if (scanned)
+                        last_clean_scan_ = now + 1;
+                    else
+                        scan(e, "the whole-field scan");
+                }
             };
             // Several steps in one sweep where nothing is due between them but
             // the receivers: no force but in the last, no lattice frame or scan
             // after any but the last.
-            auto due_after = [&](std::size_t now) {
-                return (lattice_stride_ > 0 && n_done_ok(now + 1)) || (interval > 0 && (now + 1) % interval == 0);
-            };
+            auto frame_due = [&](std::size_t now) { return lattice_stride_ > 0 && n_done_ok(now + 1); };
+            auto scan_due = [&](std::size_t now) { return interval > 0 && (now + 1) % interval == 0; };
+            auto due_after = [&](std::size_t now) { return frame_due(now) || scan_due(now); };
             constexpr bool blockable = requires { e->step_block(2, nullptr); };
             bool blocks = false;
             if constexpr (blockable)
@@ -251,16 +262,22 @@ void Simulation::run(std::size_t steps)
                 return true;
             };
             // Blocks of the largest length in a row, in one parallel region
-            // (PlateEngine::step_block's `blocks`): while no step has a force
-            // and nothing is due but after the last.
+            // (PlateEngine::step_block's `blocks`): while no step has a force,
+            // nothing is due within a block, and no lattice frame but after
+            // the last; the scans due after a block run in the region. At
+            // most run_max_bytes of receiver values between.
             constexpr std::size_t full = bulk_max_block_steps;
-            const std::size_t max_run = blocks ? run_max_blocks : 1;
+            const std::size_t max_run =
+                blocks ? std::clamp<std::size_t>(run_max_bytes /
+                                                     (full * sizeof(double) * std::max<std::size_t>(traces_.size(), 1)),
+                                                 1, run_max_blocks)
+                       : 1;
             std::vector<double> between(blocks ? (max_run * full - 1) * traces_.size() : 0);
+            std::vector<std::uint8_t> scan_after(max_run);
             for (std::size_t n = 0; n < steps;) {
                 const std::size_t now = e->steps_done();
                 if constexpr (blockable) {
-                    // Whole blocks, each free of forces, nothing due but
-                    // after the last step of the run.
+                    // Whole blocks, each free of forces, nothing due within.
                     std::size_t run = 0;
                     while (blocks && run < max_run && (run + 1) * full <= steps - n) {
                         bool ok = true;
@@ -268,15 +285,20 @@ void Simulation::run(std::size_t steps)
                             ok = force_free(now + m) && (m + 1 == (run + 1) * full || !due_after(now + m));
                         if (!ok)
                             break;
-                        if (due_after(now + (++run) * full - 1))
+                        const std::size_t last = now + (++run) * full - 1;
+                        // The scan at the end of run() too, if this is the last block.
+                        scan_after[run - 1] = scan_due(last) || run * full == steps - n;
+                        if (frame_due(last))
                             break;
                     }
                     if (run >= 2) {
                         set_forces(now + run * full - 1); // every one 0
-                        e->step_block(int(full), between.data(), int(run));
+                        // Fewer blocks where a scan saw a non-finite level.
+                        run = std::size_t(e->step_block(int(full), between.data(), int(run), scan_after.data()));
                         for (std::size_t m = 1; m < run * full; ++m)
-                            after_step(now + m - 1,
-                                       [&](std::size_t r) { return between[(m - 1) * traces_.size() + r]; });
+                            after_step(
+                                now + m - 1, [&](std::size_t r) { return between[(m - 1) * traces_.size() + r]; },
+                                true);
                         after_step(now + run * full - 1, [&](std::size_t r) { return e->receiver_value(r); });
                         n += run * full;
                         continue;

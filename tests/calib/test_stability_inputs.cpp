@@ -299,6 +299,55 @@ TEST(StabilityNonFinite, DivergenceIsReportedWithStepTimeAndNode)
     }
 }
 
+TEST(StabilityNonFinite, RunsOfBlocksOnATeamReportDivergenceAtTheScanSingleStepsWould)
+{
+    // Clamped and supported edges step in runs of blocks, many in one
+    // parallel region, the whole-field scans inside it (Simulation::run,
+    // PlateEngine::step_block's scan_after). The report must be the one the
+    // scans of single steps give, to the byte: the first scan after the field
+    // goes non-finite (every 16 steps), the field as it is there, and the
+    // last clean scan before it. The reference: the engine alone, one
+    // thread, single steps (the same bits: EngineMirrorEdges), its own
+    // report at that step.
+    const Edges e{EdgeKind::clamped, EdgeKind::simply_supported, EdgeKind::simply_supported, EdgeKind::clamped};
+    auto op = make_plate(40, 70, 0.01, e, 0.3, Loss{2.0, 5e-5});
+    const double k = 1.01 * op->max_time_step(), x = 0.13, y = 0.41;
+    auto check = [&](auto zero, Precision precision) {
+        using T = decltype(zero);
+        EngineOptions unchecked;
+        unchecked.skip_stability_check = true;
+        PlateEngine<T> ref(op, k, unchecked);
+        ref.add_source(x, y);
+        ref.set_source_force(0, 1 / k);
+        while (ref.non_finite_report().empty()) {
+            ref.step();
+            ref.set_source_force(0, 0.0);
+            ASSERT_LT(ref.steps_done(), 100000u) << "the reference did not diverge";
+        }
+        const std::size_t first_bad = ref.steps_done() - 1, at = (first_bad / 16 + 1) * 16 - 1;
+        ASSERT_GT(first_bad, 300u) << "diverged before a run of 64 blocks could pass a scan";
+        while (ref.steps_done() < at + 1)
+            ref.step();
+        const std::string expected = "simulation diverged: " + ref.non_finite_report() +
+                                     "; detected by the whole-field scan; the whole field was finite after step " +
+                                     std::to_string(at - 16);
+        for (int threads : {1, 2}) {
+            SimulationOptions opt;
+            opt.precision = precision;
+            opt.time_step_s = k;
+            opt.engine.skip_stability_check = true;
+            opt.engine.threads = threads;
+            opt.engine.parallel_min_cells = 0;
+            Simulation sim(op, opt);
+            sim.set_source_impulse(sim.add_source(x, y));
+            EXPECT_EQ(run_expecting_failure(sim, at + 5000), expected) << threads << " threads";
+            EXPECT_EQ(sim.steps_done(), at + 1) << threads << " threads";
+        }
+    };
+    check(0.0f, Precision::f32);
+    check(0.0, Precision::f64);
+}
+
 TEST(StabilityNonFinite, EndOfRunScanCatchesWhatNoReceiverSees)
 {
     // No receivers, no periodic scan: the scan at the end of run() still
