@@ -114,6 +114,12 @@ PlateEngine<T>::PlateEngine(std::shared_ptr<const PlateOperator> op, double time
     else
         build_edge_rows();
     build_rigid_modes();
+    if (bulk_threads_ > 1 && block_threads_fit(1, ny_, bulk_threads_)) {
+        for (int t = 0; t <= bulk_threads_; ++t)
+            seams_.push_back(block_seam(1, ny_, bulk_threads_, t));
+        busy_.assign(std::size_t(bulk_threads_), 0.0);
+        busy_sum_.assign(std::size_t(bulk_threads_), 0.0);
+    }
 }
 
 // Clamped and simply supported edges (any mix, PlateOperator::mirror_edges()):
@@ -343,13 +349,26 @@ int PlateEngine<T>::step_block(int steps, double *between, int blocks, const std
     };
     BlockScan scan{scan_after};
     BlockScan *const scans = scan_after ? &scan : nullptr;
+    const BlockTeam team{seams_.data(), busy_.data()};
+    const BlockTeam *const cut = seams_.empty() ? nullptr : &team;
     if (lossy_)
         bulk_update_block<T, true>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
-                                   &reads, block_reads_.rows.data(), blocks, scans);
+                                   &reads, block_reads_.rows.data(), blocks, scans, cut);
     else
         bulk_update_block<T, false>(u_, inc_, stride_, 1, nx_, 1, ny_, bulk_, steps, bulk_threads_, scratch_, row_done,
-                                    &reads, block_reads_.rows.data(), blocks, scans);
+                                    &reads, block_reads_.rows.data(), blocks, scans, cut);
     const int done = scan_after ? scan.blocks_done : blocks;
+    // The team's seams follow its threads' speeds, measured over
+    // balance_blocks blocks at a time.
+    if (cut) {
+        for (std::size_t t = 0; t < busy_.size(); ++t)
+            busy_sum_[t] += busy_[t];
+        if ((busy_blocks_ += std::size_t(done)) >= balance_blocks) {
+            balance_seams(seams_.data(), busy_sum_.data(), bulk_threads_);
+            std::fill(busy_sum_.begin(), busy_sum_.end(), 0.0);
+            busy_blocks_ = 0;
+        }
+    }
     steps_ += std::size_t(steps) * std::size_t(done);
     // The kernel's scan of the newest level, for non_finite_report, unless a
     // source's force changes it below (add_displacement forgets it).

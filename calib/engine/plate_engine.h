@@ -231,6 +231,13 @@ class PlateEngine final : public PointField {
     static constexpr std::size_t no_scan = std::size_t(-1);
     std::size_t scanned_clean_ = no_scan;
     int bulk_threads_ = 1;
+    // step_block's cut of the rows over the team (BlockTeam; empty on one
+    // thread), each thread's busy time in the last call and since the last
+    // balance_seams, and the blocks since.
+    static constexpr std::size_t balance_blocks = 16;
+    std::vector<int> seams_;
+    std::vector<double> busy_, busy_sum_;
+    std::size_t busy_blocks_ = 0;
     bool mirror_edges_ = false;
     bool ghosts_stale_ = true; // the ghosts of u^n need a pass before the next sweep
     T *storage_ = nullptr;

@@ -12,6 +12,7 @@
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace calib::engine {
 
@@ -359,6 +360,35 @@ void bulk_update(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int i1, int 
 
 int block_seam(int j0, int j1, int threads, int t) { return j0 + int(std::ptrdiff_t(j1 - j0) * t / threads); }
 
+void balance_seams(int *seam, const double *busy_s, int threads)
+{
+    const int min_rows = block_min_rows_per_thread;
+    if (threads < 2 || seam[threads] - seam[0] < threads * min_rows)
+        return;
+    double sum = 0;
+    for (int t = 0; t < threads; ++t) {
+        if (!(busy_s[t] > 0))
+            return;
+        sum += (seam[t + 1] - seam[t]) / busy_s[t];
+    }
+    // Half-way from each thread's rows to its share at its speed, rounded
+    // on the running sum, then each kept min_rows from its neighbours.
+    const int total = seam[threads] - seam[0];
+    double at = seam[0];
+    std::vector<int> next(std::size_t(threads) + 1, seam[0]);
+    next[std::size_t(threads)] = seam[threads];
+    for (int t = 0; t + 1 < threads; ++t) {
+        const double rows = seam[t + 1] - seam[t], share = total * (rows / busy_s[t]) / sum;
+        at += rows + 0.5 * (share - rows);
+        next[std::size_t(t) + 1] = int(std::lround(at));
+    }
+    for (int t = 1; t < threads; ++t)
+        next[std::size_t(t)] = std::max(next[std::size_t(t)], next[std::size_t(t) - 1] + min_rows);
+    for (int t = threads - 1; t >= 1; --t)
+        next[std::size_t(t)] = std::min(next[std::size_t(t)], next[std::size_t(t) + 1] - min_rows);
+    std::copy(next.begin(), next.end(), seam);
+}
+
 bool block_threads_fit(int j0, int j1, int threads)
 {
     return threads <= 1 || (j1 - j0) / threads >= block_min_rows_per_thread;
@@ -367,7 +397,7 @@ bool block_threads_fit(int j0, int j1, int threads)
 template <typename T, bool Lossy, int E>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
                        int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx,
-                       const std::uint8_t *hook_rows, int blocks, BlockScan *scan)
+                       const std::uint8_t *hook_rows, int blocks, BlockScan *scan, const BlockTeam *team)
 {
     static const BlockFn<T> fn = HAPTIC_PICK_ISA(BlockFn<T>, (block_avx512<T, Lossy, E>), (block_avx2<T, Lossy, E>),
                                                  (block_baseline<T, Lossy, E>));
@@ -375,7 +405,15 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         throw std::invalid_argument("bulk_update_block: steps must be 2 .. " + std::to_string(bulk_max_block_steps));
     if (blocks < 1)
         throw std::invalid_argument("bulk_update_block: blocks must be >= 1");
-    if (!block_threads_fit(j0, j1, threads))
+    const int *const seams = team ? team->seam : nullptr;
+    if (seams) {
+        bool fit = seams[0] == j0 && seams[std::max(1, threads)] == j1;
+        for (int t = 0; t < threads && fit; ++t)
+            fit = seams[t + 1] - seams[t] >= (threads > 1 ? block_min_rows_per_thread : 0);
+        if (!fit)
+            throw std::invalid_argument("bulk_update_block: the seams must cut rows j0 .. j1 in order, each thread " +
+                                        std::to_string(block_min_rows_per_thread) + " rows or more");
+    } else if (!block_threads_fit(j0, j1, threads))
         throw std::invalid_argument("bulk_update_block: too few rows per thread");
     if (scan) {
         scan->blocks_done = 0;
@@ -384,12 +422,17 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
     if (j1 <= j0)
         return;
     threads = std::max(1, threads);
+    // The first row of block t (t = threads: j1).
+    auto seam = [&](int t) { return seams ? seams[t] : block_seam(j0, j1, threads, t); };
+    double *const busy = team ? team->busy_s : nullptr;
+    if (busy)
+        std::fill_n(busy, threads, 0.0);
     // Whether block t's rows of u hold a non-finite value, if a scan is due
     // after block of steps `blk`.
     auto scan_finds = [&](int t, int blk) {
         if (!scan || !scan->after[blk])
             return false;
-        for (int j = block_seam(j0, j1, threads, t); j < block_seam(j0, j1, threads, t + 1); ++j)
+        for (int j = seam(t); j < seam(t + 1); ++j)
             if (any_non_finite(u + j * s + i0 * E, long(i1 - i0) * E))
                 return true;
         return false;
@@ -408,8 +451,8 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         BlockRegion<T> r = block_scratch(scratch + std::ptrdiff_t(t) * bulk_block_scratch_rows * s, s, blk % 2);
         r.steps = steps;
         r.level0 = blk * steps;
-        r.a = block_seam(j0, j1, threads, t);
-        r.b = block_seam(j0, j1, threads, t + 1);
+        r.a = seam(t);
+        r.b = seam(t + 1);
         if (t == 0)
             r.below_u = r.below_d = nullptr;
         if (t + 1 == threads)
@@ -433,14 +476,18 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
                 row_done(ctx, r.level0, j, below);
     };
     if (threads == 1) {
-        for (int blk = 0; blk < blocks; ++blk) {
+        const double start = busy ? omp_get_wtime() : 0;
+        int stop = blocks;
+        for (int blk = 0; blk < blocks && stop == blocks; ++blk) {
             const BlockRegion<T> r = region(0, blk);
             start_level_done(r);
             fn(u, d, s, i0, i1, j0, j1, c, r, row_done, ctx, hook_rows);
             if (scan_finds(0, blk))
-                return finish(blk);
+                stop = blk;
         }
-        return finish(blocks);
+        if (busy)
+            busy[0] = omp_get_wtime() - start;
+        return finish(stop);
     }
     // Rows `first` .. first + 2 steps - 1 of u and d to `u_copy`, `d_copy`
     // (columns i0 - 2 .. i1 + 1: the ghosts and the boundary columns the
@@ -474,6 +521,7 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         // when this block next writes them (a neighbour reading them itself
         // left them shared, and every write to them in the sweep then waited
         // for the other core: measured 10-20 % slower per block, 330 x 330).
+        double mark = busy ? omp_get_wtime() : 0;
         for (int t = tid; t < threads; t += nth)
             copy_out(t, 0);
         // Blocks of steps after the first: each block copies its rows at the
@@ -481,8 +529,14 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         // neighbours last read before the barrier before; one barrier per
         // block of steps. After a scan that saw a non-finite value, every
         // thread leaves at the barrier after it.
+        // Each thread's time is counted for its blocks (a team smaller than
+        // asked: the first of them).
         for (int blk = 0; blk < blocks; ++blk) {
+            if (busy)
+                busy[tid] += omp_get_wtime() - mark;
 #pragma omp barrier
+            if (busy)
+                mark = omp_get_wtime();
             if (stop.load(std::memory_order_relaxed) < blk)
                 break;
             for (int t = tid; t < threads; t += nth) {
@@ -501,6 +555,8 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
                     stop.store(blk, std::memory_order_relaxed);
             }
         }
+        if (busy)
+            busy[tid] += omp_get_wtime() - mark;
     }
     finish(stop.load(std::memory_order_relaxed));
 }
@@ -541,7 +597,7 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
                                             const BulkCoefficients<T> &, int, T *);                                    \
     template void bulk_update_block<T, L, 1>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *, int, BlockScan *);
+                                             const std::uint8_t *, int, BlockScan *, const BlockTeam *);
 #define HAPTIC_LANES_INSTANCES(T, L)                                                                                   \
     template void bulk_update_lanes<T, L, 1>(T *, const T *, T *, std::ptrdiff_t, int, int, int, int,                  \
                                              const BulkCoefficients<T> &, T *);                                        \
@@ -553,13 +609,13 @@ void bulk_update_threads(T *u, const T *d, T *dn, std::ptrdiff_t s, int i0, int 
                                              const BulkCoefficients<T> &, T *);                                        \
     template void bulk_update_block<T, L, 2>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *, int, BlockScan *);                                  \
+                                             const std::uint8_t *, int, BlockScan *, const BlockTeam *);               \
     template void bulk_update_block<T, L, 4>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *, int, BlockScan *);                                  \
+                                             const std::uint8_t *, int, BlockScan *, const BlockTeam *);               \
     template void bulk_update_block<T, L, 8>(T *, T *, std::ptrdiff_t, int, int, int, int,                             \
                                              const BulkCoefficients<T> &, int, int, T *, BulkRowHook, void *,          \
-                                             const std::uint8_t *, int, BlockScan *);
+                                             const std::uint8_t *, int, BlockScan *, const BlockTeam *);
 HAPTIC_LANES_INSTANCES(float, false)
 HAPTIC_LANES_INSTANCES(float, true)
 HAPTIC_LANES_INSTANCES(double, false)

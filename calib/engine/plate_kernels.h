@@ -187,11 +187,29 @@ struct BlockScan {
     int blocks_done = 0;                 // out: the blocks run
     bool found = false;                  // out: the scan after the last block run saw a non-finite value
 };
+// The rows of a team's threads in bulk_update_block, and how long each
+// worked: thread t takes rows [seam[t], seam[t + 1]) (seam[0] = j0 and
+// seam[threads] = j1, each thread at least block_min_rows_per_thread rows;
+// nullptr: block_seam's even cut), and busy_s[t], if given, receives its
+// time in its sweeps, copies and scans, without the waits at the barriers.
+// Any cut gives the same bits.
+struct BlockTeam {
+    const int *seam = nullptr;
+    double *busy_s = nullptr;
+};
+// Moves a team's seams half-way towards rows in proportion to each thread's
+// speed (its rows over its busy time), on the running sum rounded to rows,
+// each thread keeping block_min_rows_per_thread rows; unchanged if a busy
+// time is not positive. A core that shares its physical core with another
+// guest's work runs a third slower for seconds at a time; an even cut then
+// makes the other thread wait at every barrier.
+void balance_seams(int *seam, const double *busy_s, int threads);
 // E > 1: lanes (bulk_update_lanes' layout), one thread, no row_done.
 template <typename T, bool Lossy, int E = 1>
 void bulk_update_block(T *u, T *d, std::ptrdiff_t stride, int i0, int i1, int j0, int j1, const BulkCoefficients<T> &c,
                        int steps, int threads, T *scratch, BulkRowHook row_done, void *ctx,
-                       const std::uint8_t *hook_rows = nullptr, int blocks = 1, BlockScan *scan = nullptr);
+                       const std::uint8_t *hook_rows = nullptr, int blocks = 1, BlockScan *scan = nullptr,
+                       const BlockTeam *team = nullptr);
 
 // Several independent fields of one plate side by side (engine/lanes.h): node
 // (i, j) of lane l at u[j * stride + i * E + l], `stride` elements (a multiple

@@ -14,7 +14,6 @@
 
 #include <atomic>
 #include <cmath>
-#include <cstring>
 #include <map>
 #include <string>
 #include <utility>
@@ -480,93 +479,4 @@ TEST(EngineMirrorEdges, AScanOnATeamFindsANonFiniteNodeInAnyRow)
     const std::string two = report_with({{2, 70}, {4, 3}});
     EXPECT_NE(two.find("first at node (i, j) = (4, 3)"), std::string::npos) << two;
     EXPECT_NE(two.find("2 non-finite nodes"), std::string::npos) << two;
-}
-
-// The scan inside a run of blocks (BlockScan): after each block it marks,
-// every thread tests the rows it owns, the boundary rows and columns
-// included; the first scan that sees a non-finite node ends the run after
-// its block on every thread, and the field is then the field after that many
-// blocks. A run whose scans find nothing runs every block, to the same bits
-// as a run without scans.
-TEST(EngineMirrorEdges, AScanInARunEndsItAfterTheFirstBlockWhoseScanSeesANonFiniteNode)
-{
-    using namespace calib::engine;
-    constexpr int nx = 9, steps = bulk_max_block_steps, blocks = 5;
-    const std::ptrdiff_t s = 16; // columns -2 .. 13
-    const std::vector<std::uint8_t> after = {0, 1, 0, 1, 1};
-    for (int threads : {1, 2, 3}) {
-        const int ny = threads * block_min_rows_per_thread + 5;
-        const auto op = make_plate(nx, ny, 0.01, Edges::all(EdgeKind::clamped), 0.3, Loss{2.0, 5e-4});
-        const BulkCoefficients<float> c{0.99f, 0.01f, 0.002f, ghost_mirrors_of<float>(*op)};
-        // Runs `count` blocks from a smooth field with `nan` at node (i, j)
-        // (none if i < 0); returns the field of u after them, row by row.
-        auto run = [&](int i, int j, BlockScan *scan, int count) {
-            std::vector<float> u(std::size_t((ny + 6) * s)), d(u.size()),
-                scratch(std::size_t((threads * bulk_block_scratch_rows + 1) * s));
-            float *const u0 = u.data() + 3 * s + 2;
-            for (int jj = 1; jj < ny; ++jj)
-                for (int ii = 1; ii < nx; ++ii)
-                    u0[jj * s + ii] = float(std::sin(0.3 * ii) * std::sin(0.2 * jj));
-            if (i >= 0)
-                u0[j * s + i] = std::nanf("");
-            bulk_update_block<float, true>(u0, d.data() + 3 * s + 2, s, 1, nx, 1, ny, c, steps, threads,
-                                           scratch.data() + 2, nullptr, nullptr, nullptr, count, scan);
-            std::vector<float> field;
-            for (int jj = 0; jj <= ny; ++jj)
-                field.insert(field.end(), u0 + jj * s, u0 + jj * s + nx + 1);
-            return field;
-        };
-        auto same_bits = [](const std::vector<float> &a, const std::vector<float> &b) {
-            return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
-        };
-        SCOPED_TRACE(std::to_string(threads) + " threads");
-        BlockScan clean{after.data()};
-        EXPECT_TRUE(same_bits(run(-1, 0, &clean, blocks), run(-1, 0, nullptr, blocks)));
-        EXPECT_EQ(clean.blocks_done, blocks);
-        EXPECT_FALSE(clean.found);
-        // A non-finite node in each thread's rows and beside each seam, in
-        // the corners and on the boundary (which the scan leaves: the rows
-        // next to it read it).
-        std::vector<std::pair<int, int>> nodes = {{1, 1},      {nx - 1, ny - 1}, {0, 0}, {nx, ny},
-                                                  {0, ny / 2}, {nx, 3},          {4, 0}, {5, ny}};
-        for (int t = 0; t < threads; ++t) {
-            const int seam = block_seam(1, ny, threads, t);
-            nodes.insert(nodes.end(), {{3, seam}, {6, std::max(1, seam - 1)}, {2, seam + 7}});
-        }
-        for (auto [i, j] : nodes) {
-            BlockScan scan{after.data()};
-            const std::vector<float> stopped = run(i, j, &scan, blocks);
-            EXPECT_EQ(scan.blocks_done, 2) << "node (" << i << ", " << j << ")";
-            EXPECT_TRUE(scan.found) << "node (" << i << ", " << j << ")";
-            EXPECT_TRUE(same_bits(stopped, run(i, j, nullptr, 2))) << "node (" << i << ", " << j << ")";
-        }
-    }
-}
-
-// The engine keeps what its last run's scan found (non_finite_report() is
-// then free) only while nothing else touched the field: a displacement added
-// or a state set after it is scanned again.
-TEST(EngineMirrorEdges, AScanInARunIsForgottenOnceTheFieldChanges)
-{
-    auto op = make_plate(9, 71, 0.01, Edges::all(EdgeKind::clamped));
-    EngineOptions team;
-    team.threads = 2;
-    team.parallel_min_cells = 0;
-    PlateEngine<float> eng(op, 0.9 * op->max_time_step(), team);
-    ASSERT_TRUE(eng.can_block());
-    const std::vector<std::uint8_t> after = {1, 1};
-    const std::vector<double> field = random_field(*op, 3);
-    eng.set_state(field, field);
-    ASSERT_EQ(eng.step_block(calib::engine::bulk_max_block_steps, nullptr, 2, after.data()), 2);
-    EXPECT_EQ(eng.non_finite_report(), "");
-    eng.add_displacement(5 * eng.stride() + 4, std::nanf(""));
-    EXPECT_NE(eng.non_finite_report().find("first at node (i, j) = (4, 5)"), std::string::npos);
-    ASSERT_EQ(eng.step_block(calib::engine::bulk_max_block_steps, nullptr, 2, after.data()), 1);
-    EXPECT_NE(eng.non_finite_report(), "");
-    std::vector<double> bad = field;
-    bad[op->grid().node(3, 60)] = std::nan("");
-    eng.set_state(field, field);
-    ASSERT_EQ(eng.step_block(calib::engine::bulk_max_block_steps, nullptr, 2, after.data()), 2);
-    eng.set_state(bad, field);
-    EXPECT_NE(eng.non_finite_report().find("first at node (i, j) = (3, 60)"), std::string::npos);
 }
