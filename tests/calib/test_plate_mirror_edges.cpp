@@ -450,33 +450,3 @@ TEST(EngineMirrorEdges, ASimulationOnATeamRunsBlocksInARowBitForBit)
             expect_as_single_steps(sim, op, p, x, y, force, at, 500, 5, 100, 77);
         }
 }
-
-// The whole-field scan on a team (each thread its own rows, as the sweep cuts
-// them): a non-finite node in any row is found, and named first in row order.
-TEST(EngineMirrorEdges, AScanOnATeamFindsANonFiniteNodeInAnyRow)
-{
-    auto op = make_plate(9, 71, 0.01, Edges::all(EdgeKind::clamped));
-    EngineOptions team;
-    team.threads = 2;
-    team.parallel_min_cells = 0;
-    PlateEngine<float> eng(op, 0.9 * op->max_time_step(), team);
-    ASSERT_TRUE(eng.threaded());
-    const std::vector<double> zero(op->grid().node_count(), 0.0);
-    eng.set_state(zero, zero);
-    EXPECT_EQ(eng.non_finite_report(), "");
-    auto report_with = [&](std::vector<std::pair<int, int>> nodes) {
-        std::vector<double> field = zero;
-        for (auto [i, j] : nodes)
-            field[std::size_t(j) * 10 + std::size_t(i)] = std::nan("");
-        eng.set_state(field, zero);
-        return eng.non_finite_report();
-    };
-    for (int j = 1; j < 71; ++j) { // every row of unknowns
-        const std::string report = report_with({{4, j}});
-        EXPECT_NE(report.find("first at node (i, j) = (4, " + std::to_string(j) + ")"), std::string::npos)
-            << "row " << j << ": " << report;
-    }
-    const std::string two = report_with({{2, 70}, {4, 3}});
-    EXPECT_NE(two.find("first at node (i, j) = (4, 3)"), std::string::npos) << two;
-    EXPECT_NE(two.find("2 non-finite nodes"), std::string::npos) << two;
-}

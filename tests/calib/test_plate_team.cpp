@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -33,6 +34,15 @@ struct Fields {
     float *d0() { return d.data() + 3 * stride + 2; }
     float *scratch0() { return scratch.data() + 2; }
 };
+
+// A team of two threads on any plate, however small.
+EngineOptions two_threads()
+{
+    EngineOptions team;
+    team.threads = 2;
+    team.parallel_min_cells = 0;
+    return team;
+}
 
 bool same_bits(const std::vector<float> &a, const std::vector<float> &b)
 {
@@ -110,6 +120,33 @@ TEST(PlateTeam, SeamsMoveHalfWayTowardsTheThreadsSpeeds)
     EXPECT_EQ(balanced({1, 30, 60}, {1.0, 3.0}), (std::vector<int>{1, 30, 60}));
 }
 
+// The whole-field scan on a team (each thread its own rows, as the sweep cuts
+// them): a non-finite node in any row is found, and named first in row order.
+TEST(PlateTeam, AScanOnATeamFindsANonFiniteNodeInAnyRow)
+{
+    auto op = make_plate(9, 71, 0.01, Edges::all(EdgeKind::clamped));
+    PlateEngine<float> eng(op, 0.9 * op->max_time_step(), two_threads());
+    ASSERT_TRUE(eng.threaded());
+    const std::vector<double> zero(op->grid().node_count(), 0.0);
+    eng.set_state(zero, zero);
+    EXPECT_EQ(eng.non_finite_report(), "");
+    auto report_with = [&](std::vector<std::pair<int, int>> nodes) {
+        std::vector<double> field = zero;
+        for (auto [i, j] : nodes)
+            field[std::size_t(j) * 10 + std::size_t(i)] = std::nan("");
+        eng.set_state(field, zero);
+        return eng.non_finite_report();
+    };
+    for (int j = 1; j < 71; ++j) { // every row of unknowns
+        const std::string report = report_with({{4, j}});
+        EXPECT_NE(report.find("first at node (i, j) = (4, " + std::to_string(j) + ")"), std::string::npos)
+            << "row " << j << ": " << report;
+    }
+    const std::string two = report_with({{2, 70}, {4, 3}});
+    EXPECT_NE(two.find("first at node (i, j) = (4, 3)"), std::string::npos) << two;
+    EXPECT_NE(two.find("2 non-finite nodes"), std::string::npos) << two;
+}
+
 // The scan inside a run of blocks (BlockScan): after each block it marks,
 // every thread tests the nodes it updates; the first scan that sees a
 // non-finite node ends the run after its block on every thread, and the
@@ -176,10 +213,7 @@ TEST(PlateTeam, AScanInARunEndsItAfterTheFirstBlockWhoseScanSeesANonFiniteNode)
 TEST(PlateTeam, AScanInARunIsForgottenOnceTheFieldChanges)
 {
     auto op = make_plate(9, 71, 0.01, Edges::all(EdgeKind::clamped));
-    EngineOptions team;
-    team.threads = 2;
-    team.parallel_min_cells = 0;
-    PlateEngine<float> eng(op, 0.9 * op->max_time_step(), team);
+    PlateEngine<float> eng(op, 0.9 * op->max_time_step(), two_threads());
     ASSERT_TRUE(eng.can_block());
     const std::vector<std::uint8_t> after = {1, 1};
     const std::vector<double> field = random_field(*op, 3);
