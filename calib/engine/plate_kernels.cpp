@@ -419,14 +419,14 @@ void bulk_update_block(T *u, T *d, std::ptrdiff_t s, int i0, int i1, int j0, int
         scan->blocks_done = 0;
         scan->found = false;
     }
-    if (j1 <= j0)
-        return;
     threads = std::max(1, threads);
-    // The first row of block t (t = threads: j1).
-    auto seam = [&](int t) { return seams ? seams[t] : block_seam(j0, j1, threads, t); };
     double *const busy = team ? team->busy_s : nullptr;
     if (busy)
         std::fill_n(busy, threads, 0.0);
+    if (j1 <= j0)
+        return;
+    // The first row of block t (t = threads: j1).
+    auto seam = [&](int t) { return seams ? seams[t] : block_seam(j0, j1, threads, t); };
     // Whether block t's rows of u hold a non-finite value, if a scan is due
     // after block of steps `blk`.
     auto scan_finds = [&](int t, int blk) {
