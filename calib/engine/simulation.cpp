@@ -185,12 +185,12 @@ void Simulation::run(std::size_t steps)
                 ftz_team.emplace();
             else
                 ftz_thread.emplace();
-            // Sets every source's force for step `now`; false if all are zero.
             // Source s's force at step `now` (0 outside its signal).
             auto force_at = [&](std::size_t s, std::size_t now) {
                 const std::size_t idx = now - signal_start_[s];
                 return idx < signals_[s].size() ? signals_[s][idx] : 0.0;
             };
+            // Sets every source's force for step `now`; false if all are zero.
             auto set_forces = [&](std::size_t now) {
                 bool any = false;
                 for (std::size_t s = 0; s < signals_.size(); ++s) {
