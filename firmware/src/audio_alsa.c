@@ -172,6 +172,16 @@ long hd_audio_prime(struct hd_audio *a)
     return (long)done;
 }
 
+/* An xrun (or suspend) (-EPIPE, -ESTRPIPE): counted, then recovered quietly. */
+static int recover(struct hd_audio *a, long err)
+{
+    if (err == -EPIPE)
+        a->xruns++;
+    else
+        a->suspends++;
+    return snd_pcm_recover(a->pcm, (int)err, 1);
+}
+
 int hd_audio_write(struct hd_audio *a, const void *frames_buf, uint32_t frames)
 {
     for (int attempt = 0; attempt < 4; attempt++) {
@@ -184,11 +194,7 @@ int hd_audio_write(struct hd_audio *a, const void *frames_buf, uint32_t frames)
             a->errors++;
             return rc;
         }
-        if (rc == -EPIPE)
-            a->xruns++;
-        else
-            a->suspends++;
-        rc = snd_pcm_recover(a->pcm, rc, 1);
+        rc = recover(a, rc);
         if (rc < 0) {
             a->errors++;
             return rc;
@@ -222,9 +228,29 @@ snd_pcm_sframes_t hd_audio_rewind_probe(struct hd_audio *a)
 {
     if (!a->rewind)
         return 0;
-    snd_pcm_sframes_t can = snd_pcm_rewindable(a->pcm);
-    if (can <= 0)
-        rewind_disable(a, can);
+    snd_pcm_sframes_t can = 0;
+    for (int attempt = 0; attempt < HD_AUDIO_PROBE_TRIES; attempt++) {
+        if (attempt > 0) { /* drained before the question: fill the buffer again */
+            long rc = can == -EPIPE || can == -ESTRPIPE ? recover(a, can) : 0;
+            if (rc >= 0)
+                rc = hd_audio_prime(a);
+            if (rc == -EPIPE || rc == -ESTRPIPE) { /* drained while priming */
+                rc = recover(a, rc);
+                if (rc >= 0)
+                    rc = hd_audio_prime(a);
+            }
+            if (rc < 0) {
+                can = rc;
+                break;
+            }
+        }
+        can = snd_pcm_rewindable(a->pcm);
+        if (can > 0)
+            return can;
+        if (can < 0 && !transient(can))
+            break;
+    }
+    rewind_disable(a, can);
     return can;
 }
 

@@ -55,9 +55,14 @@ int hd_audio_write(struct hd_audio *a, const void *frames_buf, uint32_t frames);
 void hd_audio_configure(struct hd_audio *a, int rewind, snd_pcm_uframes_t margin, int clock_paced);
 
 /* After hd_audio_prime: does the PCM rewind? With a full buffer queued,
- * snd_pcm_rewindable must report frames; a PCM (plugin) reporting none or
- * an error cannot, and rewinding is disabled. Returns the frames it can
- * rewind now (> 0), 0 or a negative errno when it cannot. */
+ * snd_pcm_rewindable must report frames. None, or an xrun, may only mean the
+ * device read the whole buffer before the question came (a stall longer
+ * than the buffer, on a board loaded at start): the buffer is primed again
+ * (an xrun recovered first) and the question asked again, up to
+ * HD_AUDIO_PROBE_TRIES times in all. A PCM (plugin) that reports none every
+ * time, or a lasting error, cannot, and rewinding is disabled. Returns the
+ * frames it can rewind now (> 0), 0 or a negative errno when it cannot. */
+#define HD_AUDIO_PROBE_TRIES 3
 snd_pcm_sframes_t hd_audio_rewind_probe(struct hd_audio *a);
 
 /* Rewind the queued frames the device has not started to read, keeping

@@ -3,7 +3,8 @@
  * partial writes; an open failure names the device and the board file.
  * Rewinding a trigger in: the margin and the caller's limit are kept;
  * rewindable 0, negative (transient or not), partial and excess rewinds;
- * the clock-paced emulated device; the probe after the pre-fill. */
+ * the clock-paced emulated device; the probe after the pre-fill, asked
+ * again after a device that drained the buffer before it. */
 #define _DEFAULT_SOURCE
 #include "audio_alsa.h"
 
@@ -29,6 +30,8 @@ static int nwrites;
 static int recover_result;
 static long rewindable_result, rewind_result, forward_result; /* rewind_result 0: as asked */
 static int rewindable_calls, rewind_calls, forward_calls;
+static long rewindable_seq[4]; /* answered first, in order, before rewindable_result */
+static int rewindable_seq_n;
 static unsigned long rewind_asked, forward_asked;
 
 snd_pcm_sframes_t __wrap_snd_pcm_writei(snd_pcm_t *pcm, const void *buf, snd_pcm_uframes_t size)
@@ -55,8 +58,8 @@ int __wrap_snd_pcm_start(snd_pcm_t *pcm)
 snd_pcm_sframes_t __wrap_snd_pcm_rewindable(snd_pcm_t *pcm)
 {
     (void)pcm;
-    rewindable_calls++;
-    return rewindable_result;
+    int i = rewindable_calls++;
+    return i < rewindable_seq_n ? rewindable_seq[i] : rewindable_result;
 }
 snd_pcm_sframes_t __wrap_snd_pcm_rewind(snd_pcm_t *pcm, snd_pcm_uframes_t frames)
 {
@@ -102,7 +105,7 @@ static int reset(void **state)
     ncalls = nwrites = 0;
     recover_result = 0;
     rewindable_result = rewind_result = forward_result = 0;
-    rewindable_calls = rewind_calls = forward_calls = 0;
+    rewindable_calls = rewind_calls = forward_calls = rewindable_seq_n = 0;
     rewind_asked = forward_asked = 0;
     return 0;
 }
@@ -247,6 +250,14 @@ static void clock_paced_device_is_emulated(void **state)
     free(a.silence);
 }
 
+static int count_calls(char what)
+{
+    int n = 0;
+    for (int i = 0; i < ncalls; i++)
+        n += calls[i].what == what;
+    return n;
+}
+
 static void probe_after_prefill(void **state)
 {
     (void)state;
@@ -254,16 +265,80 @@ static void probe_after_prefill(void **state)
     rewindable_result = 500;
     assert_int_equal(hd_audio_rewind_probe(&a), 500);
     assert_true(a.rewind);
-    rewindable_result = 0; /* a full buffer and nothing rewindable: this PCM cannot */
+    assert_int_equal(ncalls, 0); /* asked once, nothing primed */
+    /* Nothing rewindable with a full buffer, every time: this PCM cannot. */
+    rewindable_result = 0;
+    rewindable_calls = 0;
     assert_int_equal(hd_audio_rewind_probe(&a), 0);
     assert_false(a.rewind);
     assert_int_equal(a.rewind_error, -ENOTSUP);
+    assert_int_equal(rewindable_calls, HD_AUDIO_PROBE_TRIES);
+    assert_int_equal(count_calls('w'), 2 * (HD_AUDIO_PROBE_TRIES - 1)); /* primed again between: 2 periods each */
     free(a.silence);
     a = fake_rewinding();
-    rewindable_result = -EINVAL;
+    rewindable_result = -EINVAL; /* a lasting error: not asked again */
+    rewindable_calls = 0;
     assert_int_equal(hd_audio_rewind_probe(&a), -EINVAL);
     assert_false(a.rewind);
     assert_int_equal(a.rewind_error, -EINVAL);
+    assert_int_equal(rewindable_calls, 1);
+    free(a.silence);
+}
+
+/* The device read the whole buffer before the question (a stall at start):
+ * 0, or an xrun, is asked again after the buffer is primed again, and the
+ * PCM keeps rewinding. */
+static void probe_asks_again_after_a_drained_buffer(void **state)
+{
+    (void)state;
+    struct hd_audio a = fake_rewinding();
+    rewindable_seq[0] = 0;
+    rewindable_seq_n = 1;
+    rewindable_result = 480;
+    assert_int_equal(hd_audio_rewind_probe(&a), 480);
+    assert_true(a.rewind);
+    assert_int_equal(count_calls('w'), 2); /* one prime: 512 frames in periods of 256 */
+    assert_int_equal(count_calls('r'), 0);
+    assert_int_equal(a.written, 512);
+
+    reset(NULL);
+    free(a.silence);
+    a = fake_rewinding();
+    rewindable_seq[0] = -EPIPE; /* drained into an xrun: recovered, then primed */
+    rewindable_seq_n = 1;
+    rewindable_result = 480;
+    assert_int_equal(hd_audio_rewind_probe(&a), 480);
+    assert_true(a.rewind);
+    assert_int_equal(calls[0].what, 'r');
+    assert_int_equal(calls[0].frames_or_err, -EPIPE);
+    assert_int_equal(a.xruns, 1);
+    assert_int_equal(count_calls('w'), 2);
+
+    reset(NULL);
+    free(a.silence);
+    a = fake_rewinding();
+    rewindable_seq[0] = 0; /* and drained again while primed: recovered, primed again */
+    rewindable_seq_n = 1;
+    write_script[0] = -EPIPE;
+    rewindable_result = 480;
+    assert_int_equal(hd_audio_rewind_probe(&a), 480);
+    assert_true(a.rewind);
+    assert_int_equal(count_calls('r'), 1);
+    assert_int_equal(a.xruns, 1);
+    assert_int_equal(count_calls('w'), 3); /* the failed write, then a whole prime */
+
+    reset(NULL);
+    free(a.silence);
+    a = fake_rewinding();
+    rewindable_seq[0] = -ESTRPIPE; /* suspended, and the recovery fails: that error, rewinding off */
+    rewindable_seq_n = 1;
+    recover_result = -ENODEV;
+    rewindable_result = 480;
+    assert_int_equal(hd_audio_rewind_probe(&a), -ENODEV);
+    assert_false(a.rewind);
+    assert_int_equal(a.rewind_error, -ENODEV);
+    assert_int_equal(a.suspends, 1);
+    assert_int_equal(rewindable_calls, 1);
     free(a.silence);
 }
 
@@ -466,6 +541,7 @@ int main(void)
         cmocka_unit_test_setup(rewind_keeps_margin_and_limit, reset),
         cmocka_unit_test_setup(nothing_rewindable_rewinds_nothing, reset),
         cmocka_unit_test_setup(rewindable_errors, reset),
+        cmocka_unit_test_setup(probe_asks_again_after_a_drained_buffer, reset),
         cmocka_unit_test_setup(partial_and_failed_rewinds, reset),
         cmocka_unit_test_setup(clock_paced_device_is_emulated, reset),
         cmocka_unit_test_setup(probe_after_prefill, reset),
