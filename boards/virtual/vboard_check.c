@@ -211,8 +211,7 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
                   onset, gap_at, gap_frames);
         return;
     }
-    if (n < N || tail > to ||
-        (seg + 1 < cap->segments + atomic_load(&cap->segment_count) && tail > (seg + 1)->start)) {
+    if (n < N || tail > to || (seg + 1 < cap->segments + atomic_load(&cap->segment_count) && tail > (seg + 1)->start)) {
         int next = !(n < N || tail > to);
         vb_result(0, e->name,
                   "the voice at capture frame %zu is cut after its frame %u: %s at capture frame %zu, before the "
