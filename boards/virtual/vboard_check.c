@@ -206,9 +206,9 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
     size_t tail = pos + cap->rate_hz / 10;
     if (n < N && gap_frames && gap_frames != (size_t)-1) { /* a gap ran to the next trigger */
         vb_result(0, e->name,
-                  "the voice at capture frame %zu stops after its frame %u: silence for the %zu frames to the next "
-                  "trigger (or the end of the recording)",
-                  onset, gap_at, gap_frames);
+                  "the voice at capture frame %zu stops after its frame %u (%llu samples off before): silence for "
+                  "the %zu frames to the next trigger (or the end of the recording)",
+                  onset, gap_at, (unsigned long long)mismatched, gap_frames);
         return;
     }
     if (n < N || tail > to || (seg + 1 < cap->segments + atomic_load(&cap->segment_count) && tail > (seg + 1)->start)) {
