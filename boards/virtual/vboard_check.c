@@ -212,12 +212,12 @@ void vb_check_voice(const struct vb_capture *cap, const haptic_table *t, struct 
         return;
     }
     if (n < N || tail > to || (seg + 1 < cap->segments + atomic_load(&cap->segment_count) && tail > (seg + 1)->start)) {
-        int next = !(n < N || tail > to);
+        int by_overrun = !(n < N || tail > to);
         vb_result(0, e->name,
                   "the voice at capture frame %zu is cut after its frame %u: %s at capture frame %zu, before the "
                   "100 ms after the voice (to frame %zu) are recorded; %zu frames of silence after its frame %u",
-                  onset, n, next ? "a capture overrun" : "the next trigger or the end of the recording",
-                  next ? (seg + 1)->start : to, tail, gap_frames == (size_t)-1 ? 0 : gap_frames, gap_at);
+                  onset, n, by_overrun ? "a capture overrun" : "the next trigger or the end of the recording",
+                  by_overrun ? (seg + 1)->start : to, tail, gap_frames == (size_t)-1 ? 0 : gap_frames, gap_at);
         return;
     }
     uint64_t stray = 0;

@@ -172,7 +172,7 @@ long hd_audio_prime(struct hd_audio *a)
     return (long)done;
 }
 
-/* An xrun (or suspend) (-EPIPE, -ESTRPIPE): counted, then recovered quietly. */
+/* An xrun (-EPIPE) or a suspend (-ESTRPIPE): counted, then recovered quietly. */
 static int recover(struct hd_audio *a, long err)
 {
     if (err == -EPIPE)
@@ -234,13 +234,10 @@ snd_pcm_sframes_t hd_audio_rewind_probe(struct hd_audio *a)
             long rc = can == -EPIPE || can == -ESTRPIPE ? recover(a, can) : 0;
             if (rc >= 0)
                 rc = hd_audio_prime(a);
-            if (rc == -EPIPE || rc == -ESTRPIPE) { /* drained while priming */
-                rc = recover(a, rc);
-                if (rc >= 0)
-                    rc = hd_audio_prime(a);
-            }
             if (rc < 0) {
                 can = rc;
+                if (rc == -EPIPE || rc == -ESTRPIPE)
+                    continue; /* drained while priming: the next try recovers it */
                 break;
             }
         }
